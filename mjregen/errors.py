@@ -1,0 +1,21 @@
+"""Exceptions raised by mjregen: each names the problem and, where it can, the fix."""
+
+
+class MjregenError(Exception):
+    """Base class of every error mjregen raises on purpose."""
+
+
+class InvalidGridError(MjregenError, ValueError):
+    """A robot grid has the wrong type, shape, border or material codes."""
+
+
+class GridFileError(MjregenError, ValueError):
+    """A robot file is missing, not a `.npy` file, or corrupt."""
+
+
+class CheckpointError(MjregenError, ValueError):
+    """An NCA checkpoint is missing, corrupt, or does not match its configuration."""
+
+
+class InvalidGenomeError(MjregenError, ValueError):
+    """A genome has the wrong length or holds non-finite values."""
