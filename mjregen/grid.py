@@ -81,7 +81,7 @@ def validate_grid(values: ArrayLike) -> np.ndarray:
     if np.any(unknown):
         where = tuple(int(i) for i in np.argwhere(unknown)[0])
         raise InvalidGridError(
-            f"unknown material code {array[where]!r} at {where}; valid codes are "
+            f"unknown material code {array[where].item()!r} at {where}; valid codes are "
             + ", ".join(f"{m.value} {m.name.lower()}" for m in Material)
         )
     grid = array.astype(np.int8)

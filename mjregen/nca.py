@@ -1,0 +1,439 @@
+"""Neural cellular automata that grow robot grids, as in the paper's code, batched in torch.
+
+Every interior cell of the grid carries a material code (`state`) and a maturity (`alpha`);
+LSTM networks also give each cell a memory ``(h, c)``. One growth step, for every cell at
+once (synchronous), with the same network everywhere:
+
+* input: the cell's Moore neighbourhood including itself, all states then all alphas,
+  flattened in the paper's (z, y, x) order (x fastest), divided by 3;
+* a cell is alive iff the largest alpha in its neighbourhood exceeds 0.1 (previous step);
+  then state = argmax of the network's 5 state outputs and alpha = sigmoid(6th output),
+  LSTM memory = the LSTM's new ``(h, c)``; otherwise state, alpha and memory become 0;
+* the one-cell border stays empty.
+
+Growth starts from the centre cell (state soft, alpha 1; memory ones everywhere) and runs
+10 steps. The whole population grows in one batched computation: each individual's weights
+are a slice of a ``(P, G)`` genome tensor and every layer is one batched matmul.
+
+Genomes are float32 vectors in the order of ``torch.nn.utils.parameters_to_vector`` of
+`CellNetwork` (the paper's ``MorphNet`` layout), so genome <-> network is exact.
+"""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import asdict, dataclass
+from typing import Literal
+
+import numpy as np
+import torch
+from torch import nn
+from torch.nn.utils import parameters_to_vector, vector_to_parameters
+
+from mjregen.errors import InvalidGenomeError
+from mjregen.grid import N_MATERIALS, Material, Robot, clean_grids
+
+GRID_SIZE = {2: 7, 3: 9}  # the paper's grids, border included
+NetKind = Literal["ff", "lstm"]
+
+
+@dataclass(frozen=True)
+class NCAConfig:
+    """Everything needed to rebuild an NCA.
+
+    Attributes:
+      dim: 2 (grid ``[x, z]``) or 3 (grid ``[x, y, z]``).
+      kind: "ff" (in→hidden→hidden→6, tanh) or "lstm" (in→lstm_input tanh→LSTM→6).
+      hidden: width of the feed-forward hidden layers / LSTM hidden size.
+      lstm_input: width of the tanh layer in front of the LSTM.
+      steps: growth steps.
+      grid_size: cells per axis, border included; 0 means the paper's (9 in 3D, 7 in 2D).
+      alive_threshold: a cell lives iff its neighbourhood's largest alpha exceeds this.
+      input_scale: the network input is divided by this.
+    """
+
+    dim: int = 3
+    kind: NetKind = "ff"
+    hidden: int = 64
+    lstm_input: int = 32
+    steps: int = 10
+    grid_size: int = 0
+    alive_threshold: float = 0.1
+    input_scale: float = 3.0
+
+    def __post_init__(self) -> None:
+        if self.dim not in GRID_SIZE:
+            raise ValueError(f"NCA dim must be 2 or 3, got {self.dim!r}")
+        if self.kind not in ("ff", "lstm"):
+            raise ValueError(f"NCA kind must be 'ff' or 'lstm', got {self.kind!r}")
+        if self.grid_size == 0:
+            object.__setattr__(self, "grid_size", GRID_SIZE[self.dim])
+        for name in ("hidden", "lstm_input", "steps"):
+            if not isinstance(getattr(self, name), int) or getattr(self, name) < 1:
+                raise ValueError(f"NCA {name} must be a positive integer, got {getattr(self, name)!r}")
+        if not isinstance(self.grid_size, int) or self.grid_size < 3 or self.grid_size % 2 == 0:
+            raise ValueError(f"NCA grid_size must be an odd integer >= 3, got {self.grid_size!r}")
+        if not (np.isfinite(self.input_scale) and self.input_scale > 0):
+            raise ValueError(f"NCA input_scale must be positive, got {self.input_scale!r}")
+        if not np.isfinite(self.alive_threshold):
+            raise ValueError(f"NCA alive_threshold must be finite, got {self.alive_threshold!r}")
+
+    @property
+    def n_inputs(self) -> int:
+        """Network inputs per cell: 3^dim states then 3^dim alphas."""
+        return 2 * 3**self.dim
+
+    @property
+    def n_outputs(self) -> int:
+        """One score per material plus the alpha channel."""
+        return N_MATERIALS + 1
+
+    @property
+    def grid_shape(self) -> tuple[int, ...]:
+        return (self.grid_size,) * self.dim
+
+    @property
+    def genome_size(self) -> int:
+        return sum(int(np.prod(shape)) for _, shape in parameter_layout(self))
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, values: dict) -> NCAConfig:
+        unknown = set(values) - set(cls.__dataclass_fields__)
+        if unknown:
+            raise ValueError(f"unknown NCA config keys: {sorted(unknown)}")
+        return cls(**values)
+
+
+class CellNetwork(nn.Module):
+    """One cell's network, laid out like the paper's ``MorphNet`` (same parameter order).
+
+    `forward` maps inputs ``(N, n_inputs)`` (already divided by `input_scale`) and, for
+    LSTMs, a memory ``(h, c)`` each ``(N, hidden)`` to outputs ``(N, 6)`` and the new memory.
+    """
+
+    def __init__(self, config: NCAConfig) -> None:
+        super().__init__()
+        self.kind = config.kind
+        if config.kind == "ff":
+            self.linear1 = nn.Linear(config.n_inputs, config.hidden)
+            self.linear2 = nn.Linear(config.hidden, config.hidden)
+            self.linear3 = nn.Linear(config.hidden, config.n_outputs)
+        else:
+            self.linear1 = nn.Linear(config.n_inputs, config.lstm_input)
+            self.lstm = nn.LSTM(config.lstm_input, config.hidden)
+            self.linear2 = nn.Linear(config.hidden, config.n_outputs)
+
+    def forward(
+        self, x: torch.Tensor, memory: tuple[torch.Tensor, torch.Tensor] | None = None
+    ) -> tuple[torch.Tensor, tuple[torch.Tensor, torch.Tensor] | None]:
+        if self.kind == "ff":
+            x = torch.tanh(self.linear2(torch.tanh(self.linear1(x))))
+            return self.linear3(x), None
+        assert memory is not None, "an LSTM cell network needs its memory (h, c)"
+        h, c = memory
+        x, (h, c) = self.lstm(torch.tanh(self.linear1(x)).unsqueeze(0), (h.unsqueeze(0), c.unsqueeze(0)))
+        return self.linear2(x[0]), (h[0], c[0])
+
+
+@functools.lru_cache(maxsize=None)
+def parameter_layout(config: NCAConfig) -> tuple[tuple[str, tuple[int, ...]], ...]:
+    """``(name, shape)`` of every parameter of `CellNetwork`, in genome order."""
+    return tuple((name, tuple(p.shape)) for name, p in CellNetwork(config).named_parameters())
+
+
+def genome_to_network(config: NCAConfig, genome: np.ndarray) -> CellNetwork:
+    """A `CellNetwork` whose parameters are exactly `genome` (float32, ``(G,)``)."""
+    genome = check_genomes(config, genome)
+    network = CellNetwork(config)
+    vector_to_parameters(torch.from_numpy(genome.copy()), network.parameters())
+    return network
+
+
+def network_to_genome(network: CellNetwork) -> np.ndarray:
+    """The flat float32 genome ``(G,)`` of `network` (``parameters_to_vector`` order)."""
+    return parameters_to_vector(network.parameters()).detach().numpy().astype(np.float32)
+
+
+def check_genomes(config: NCAConfig, genomes: np.ndarray) -> np.ndarray:
+    """Validate genomes ``(G,)`` or ``(P, G)`` for `config`; return them as float32."""
+    array = np.asarray(genomes)
+    if array.ndim not in (1, 2) or array.shape[-1] != config.genome_size:
+        raise InvalidGenomeError(
+            f"genome shape {array.shape} does not fit a {config.dim}D {config.kind} NCA with "
+            f"hidden={config.hidden}: expected ({config.genome_size},) or (P, {config.genome_size})"
+        )
+    if not np.issubdtype(array.dtype, np.floating) and not np.issubdtype(array.dtype, np.integer):
+        raise InvalidGenomeError(f"genome must be numeric, got dtype {array.dtype}")
+    if not np.all(np.isfinite(array)):
+        raise InvalidGenomeError("genome contains NaN or infinite values")
+    return array.astype(np.float32, copy=False)
+
+
+def random_genomes(
+    config: NCAConfig, n: int, *, seed: int | np.random.Generator, std: float = 0.1
+) -> np.ndarray:
+    """The paper's initial genomes: ``(n, G)`` float32, every gene N(0, std²)."""
+    rng = np.random.default_rng(seed)
+    return rng.normal(0.0, std, size=(n, config.genome_size)).astype(np.float32)
+
+
+@dataclass
+class CAState:
+    """The full CA state of a population.
+
+    Attributes:
+      state: int64 ``(P, *grid)`` material codes.
+      alpha: float32 ``(P, *grid)`` maturities.
+      memory: LSTM ``(h, c)``, each float32 ``(P, *interior, hidden)`` with
+        ``interior = grid - 2`` per axis (the border has no cell); None for feed-forward.
+    """
+
+    state: torch.Tensor
+    alpha: torch.Tensor
+    memory: tuple[torch.Tensor, torch.Tensor] | None
+
+    @classmethod
+    def seed(cls, config: NCAConfig, population: int) -> CAState:
+        """The paper's start: centre cell soft with alpha 1, memory ones everywhere."""
+        state = torch.zeros((population, *config.grid_shape), dtype=torch.int64)
+        alpha = torch.zeros((population, *config.grid_shape), dtype=torch.float32)
+        centre = (slice(None),) + (config.grid_size // 2,) * config.dim
+        state[centre] = int(Material.SOFT)
+        alpha[centre] = 1.0
+        memory = None
+        if config.kind == "lstm":
+            shape = (population,) + (config.grid_size - 2,) * config.dim + (config.hidden,)
+            memory = (torch.ones(shape), torch.ones(shape))
+        return cls(state, alpha, memory)
+
+
+@dataclass
+class Growth:
+    """What a population's growth produced.
+
+    Attributes:
+      states: int8 ``(P, steps + 1, *grid)``, the grid before growth and after every step
+        (not cleaned).
+      alphas: float32 ``(P, steps + 1, *grid)``, the matching maturities.
+      final: the full CA state after the last step (for regeneration).
+      grids: int8 ``(P, *grid)``, the final grids after the paper's cleaning.
+    """
+
+    states: np.ndarray
+    alphas: np.ndarray
+    final: CAState
+    grids: np.ndarray
+
+    def robot(self, index: int = 0) -> Robot:
+        """The cleaned robot grown by individual `index`."""
+        return Robot(self.grids[index])
+
+
+class PopulationNetworks:
+    """The cell networks of a whole population, evaluated with batched matmuls.
+
+    Args:
+      config: the NCA configuration.
+      genomes: float32 ``(P, G)``.
+    """
+
+    def __init__(self, config: NCAConfig, genomes: np.ndarray) -> None:
+        genomes = check_genomes(config, genomes)
+        if genomes.ndim == 1:
+            genomes = genomes[None]
+        flat = torch.tensor(genomes)  # a copy: genomes may be read-only
+        sizes = [int(np.prod(shape)) for _, shape in parameter_layout(config)]
+        params = {
+            name: chunk.reshape(len(genomes), *shape)
+            for (name, shape), chunk in zip(parameter_layout(config), torch.split(flat, sizes, dim=1))
+        }
+        self.kind = config.kind
+        # Per layer: weight as (P, in, out), contiguous, and bias as (P, 1, out).
+        self.layers: dict[str, tuple[torch.Tensor, torch.Tensor]] = {}
+        for name in ("linear1", "linear2", "linear3"):
+            if f"{name}.weight" in params:
+                self.layers[name] = (
+                    params[f"{name}.weight"].transpose(1, 2).contiguous(),
+                    params[f"{name}.bias"].unsqueeze(1),
+                )
+        if config.kind == "lstm":
+            # Both LSTM matmuls in one, [x, h] @ [W_ih; W_hh]^T + (b_ih + b_hh), with the gate
+            # rows reordered from torch's (i, f, g, o) to (i, f, o, g) so that one sigmoid
+            # covers a contiguous block.
+            hidden = config.hidden
+            order = torch.cat([torch.arange(0, 2 * hidden), torch.arange(3 * hidden, 4 * hidden),
+                               torch.arange(2 * hidden, 3 * hidden)])
+            weight = torch.cat([params["lstm.weight_ih_l0"], params["lstm.weight_hh_l0"]], dim=2)
+            bias = params["lstm.bias_ih_l0"] + params["lstm.bias_hh_l0"]
+            self.layers["lstm"] = (
+                weight[:, order].transpose(1, 2).contiguous(),
+                bias[:, order].unsqueeze(1),
+            )
+
+    def _linear(self, name: str, x: torch.Tensor) -> torch.Tensor:
+        """``x @ W.T + b`` per individual: x ``(P, N, in)`` -> ``(P, N, out)``."""
+        weight, bias = self.layers[name]
+        return torch.baddbmm(bias, x, weight)
+
+    def __call__(
+        self, x: torch.Tensor, memory: tuple[torch.Tensor, torch.Tensor] | None
+    ) -> tuple[torch.Tensor, tuple[torch.Tensor, torch.Tensor] | None]:
+        """Inputs ``(P, N, n_inputs)``, memory ``(h, c)`` each ``(P, N, hidden)`` ->
+        outputs ``(P, N, 6)`` and the new memory (None for feed-forward)."""
+        if self.kind == "ff":
+            x = torch.tanh(self._linear("linear1", x))
+            x = torch.tanh(self._linear("linear2", x))
+            return self._linear("linear3", x), None
+        assert memory is not None
+        h, c = memory
+        x = torch.tanh(self._linear("linear1", x))
+        gates = self._linear("lstm", torch.cat([x, h], dim=-1))
+        hidden = h.shape[-1]
+        sig = torch.sigmoid(gates[..., : 3 * hidden])
+        in_gate, forget_gate, out_gate = sig.split(hidden, dim=-1)
+        c = torch.addcmul(forget_gate * c, in_gate, torch.tanh(gates[..., 3 * hidden :]))
+        h = torch.tanh(c).mul_(out_gate)
+        return self._linear("linear2", h), (h, c)
+
+
+def neighbourhoods(values: torch.Tensor, dim: int) -> torch.Tensor:
+    """Moore neighbourhoods (self included) of every interior cell.
+
+    Args:
+      values: ``(P, *grid)``.
+    Returns:
+      ``(P, N, 3**dim)`` with N interior cells in C order of ``[x, (y,) z]`` and each
+      neighbourhood flattened in the paper's (z, y, x) order, x fastest.
+    """
+    windows = values
+    for axis in range(1, dim + 1):
+        windows = windows.unfold(axis, 3, 1)
+    # windows: (P, *interior, offset_x, (offset_y,) offset_z) -> offsets reversed to z, y, x
+    order = (0, *range(1, dim + 1), *reversed(range(dim + 1, 2 * dim + 1)))
+    windows = windows.permute(order)
+    return windows.reshape(values.shape[0], -1, 3**dim)
+
+
+def growth_step(config: NCAConfig, networks: PopulationNetworks, ca: CAState) -> CAState:
+    """One synchronous update of every interior cell (see the module docstring)."""
+    population = ca.state.shape[0]
+    state_nb = neighbourhoods(ca.state.to(torch.float32), config.dim)
+    alpha_nb = neighbourhoods(ca.alpha, config.dim)
+    inputs = torch.cat([state_nb, alpha_nb], dim=-1) / config.input_scale
+    memory = None
+    if ca.memory is not None:
+        memory = tuple(m.reshape(population, -1, config.hidden) for m in ca.memory)
+    outputs, new_memory = networks(inputs, memory)
+    alive = alpha_nb.amax(dim=-1) > config.alive_threshold  # (P, N)
+
+    interior_shape = (population,) + (config.grid_size - 2,) * config.dim
+    interior = (slice(None),) + (slice(1, -1),) * config.dim
+    state = torch.zeros_like(ca.state)
+    alpha = torch.zeros_like(ca.alpha)
+    state[interior] = torch.where(alive, outputs[..., :N_MATERIALS].argmax(dim=-1), 0).reshape(interior_shape)
+    alpha[interior] = torch.where(alive, torch.sigmoid(outputs[..., N_MATERIALS]), 0.0).reshape(interior_shape)
+    next_memory = None
+    if new_memory is not None:
+        keep = alive.unsqueeze(-1)
+        next_memory = tuple(
+            torch.where(keep, m, 0.0).reshape(*interior_shape, config.hidden) for m in new_memory
+        )
+    return CAState(state, alpha, next_memory)
+
+
+CHUNK = 16  # individuals grown together: small enough for the caches, big enough to batch
+
+
+@torch.no_grad()
+def grow(
+    config: NCAConfig,
+    genomes: np.ndarray,
+    *,
+    start: CAState | None = None,
+    steps: int | None = None,
+) -> Growth:
+    """Grow a population: every genome's NCA runs `steps` steps from `start`.
+
+    Individuals are independent and every one gets bit-identical results whether it grows
+    alone or in a population; they are processed in batches of `CHUNK` (cache blocking).
+
+    Args:
+      config: the NCA configuration.
+      genomes: float32 ``(G,)`` for one individual or ``(P, G)`` for a population.
+      start: the initial CA state (P individuals); default the paper's centre seed. A
+        damaged state here makes this regrowth.
+      steps: growth steps; default ``config.steps``.
+    Returns:
+      A `Growth` with P individuals; its `grids` are cleaned as in the paper.
+    """
+    genomes = check_genomes(config, genomes).reshape(-1, config.genome_size)
+    population = len(genomes)
+    start = CAState.seed(config, population) if start is None else start
+    if tuple(start.state.shape) != (population, *config.grid_shape):
+        raise ValueError(
+            f"start state shape {tuple(start.state.shape)} does not match {population} "
+            f"individuals on a {config.grid_shape} grid"
+        )
+    if (start.memory is None) != (config.kind == "ff"):
+        raise ValueError("start state needs LSTM memory exactly when the NCA is an LSTM")
+    n_steps = config.steps if steps is None else steps
+    states, alphas, finals = [], [], []
+    for begin in range(0, population, CHUNK):
+        part = slice(begin, begin + CHUNK)
+        networks = PopulationNetworks(config, genomes[part])
+        ca = CAState(
+            start.state[part],
+            start.alpha[part],
+            None if start.memory is None else (start.memory[0][part], start.memory[1][part]),
+        )
+        history = [ca]
+        for _ in range(n_steps):
+            ca = growth_step(config, networks, ca)
+            history.append(ca)
+        states.append(torch.stack([h.state for h in history], dim=1))
+        alphas.append(torch.stack([h.alpha for h in history], dim=1))
+        finals.append(ca)
+    final = CAState(
+        torch.cat([f.state for f in finals]),
+        torch.cat([f.alpha for f in finals]),
+        None if finals[0].memory is None else tuple(torch.cat([f.memory[i] for f in finals]) for i in (0, 1)),
+    )
+    all_states = torch.cat(states).numpy().astype(np.int8)
+    return Growth(
+        states=all_states,
+        alphas=torch.cat(alphas).numpy(),
+        final=final,
+        grids=clean_grids(all_states[:, -1], config.dim),
+    )
+
+
+@dataclass(frozen=True)
+class NCA:
+    """One NCA: its configuration and its genome (float32 ``(G,)``)."""
+
+    config: NCAConfig
+    genome: np.ndarray
+
+    def __post_init__(self) -> None:
+        genome = check_genomes(self.config, self.genome)
+        if genome.ndim != 1:
+            raise InvalidGenomeError(f"an NCA has one genome of shape ({self.config.genome_size},)")
+        genome = genome.copy()
+        genome.flags.writeable = False
+        object.__setattr__(self, "genome", genome)
+
+    @classmethod
+    def random(cls, config: NCAConfig, *, seed: int | np.random.Generator) -> NCA:
+        """An NCA with the paper's initial genes N(0, 0.1²)."""
+        return cls(config, random_genomes(config, 1, seed=seed)[0])
+
+    def grow(self, *, start: CAState | None = None, steps: int | None = None) -> Growth:
+        """Grow this NCA's robot (a population of one)."""
+        return grow(self.config, self.genome, start=start, steps=steps)
+
+    def network(self) -> CellNetwork:
+        """The cell network as a torch module holding exactly this genome."""
+        return genome_to_network(self.config, self.genome)
