@@ -1,0 +1,313 @@
+"""Robot grid + physics -> MuJoCo model (`MjSpec` -> `MjModel`), and MJCF export.
+
+Model, one code path for 2D and 3D:
+
+- Every voxel is a body with a box geom of edge L and mass density·L³ (cube inertia). In 3D it
+  has a free joint; in 2D it moves in the x–z plane (slide x, slide z, hinge y). Clamped
+  voxels get no joint (welded to the world). The robot starts with its lowest voxel's bottom
+  face at z = `elevation` and its centre of mass at x = y = 0.
+- Each pair of face neighbours is bonded by spatial tendons between sites fixed in the two
+  bodies, from one voxel centre's cross-section to the other's (length ≈ L, never zero).
+  For a bond along axis x with lateral axes P (one in 2D, two in 3D):
+
+  * diagonals: for each lateral axis q and each offset ±a along the other lateral axes
+    (none in 2D), a crossed pair from −b to +b along q (and +b to −b), each of stiffness
+    k_d; they carry shear and, in 3D, bending;
+  * axial tendons at all lateral offsets (±a, ±a) with total stiffness k_ax (2D only).
+
+  Linearised, with s, c the sine and cosine of a diagonal's angle to the bond axis, the bond
+  has axial stiffness k_ax + n·2ⁿ k_d c², shear stiffness 2ⁿ k_d s² and bending stiffness
+  k_ax a² (2D) or 4 k_d c² a² (3D), n = number of lateral axes. Beam theory asks for E·A/L =
+  E·L, G·A/L = G·L and E·I/L = E·L³/12. Choosing b = L·sqrt(G/2E) = L / (2 sqrt(1+ν)) makes
+  the 3D bond exact with k_ax = 0 (8 tendons), and the same b with a = L/√6 makes the 2D
+  bond exact with k_ax = E·L/2 (2 axial + 2 diagonal tendons). E and G of a bond are the
+  two voxels' half-lengths in series (2 E₁E₂/(E₁+E₂)); so every material of a robot must
+  share one Poisson ratio.
+- Bond damping is stiffness-proportional: each tendon's damping = its stiffness ×
+  2ζ sqrt(m/k_bond) with m the mean voxel mass, i.e. c = 2ζ sqrt(m k) axially (the paper
+  engine's convention).
+- Muscles: a bond's axial rest length is L·(s₁+s₂)/2 with sᵢ the voxels' linear scales;
+  each tendon of the bond gets the rest length sqrt((L s̄)² + d²), d its fixed lateral
+  extent, so the bond is unstressed at centre distance L s̄ (scaling the whole tendon
+  length would over-contract bonds whose diagonals cannot shrink sideways). The tendons
+  of bonds touching a muscle come first in the model; `simulate` rewrites their
+  `tendon_lengthspring` every step (`MuscleTendons`). The geom boxes keep size L.
+- Contacts: only voxel–floor pairs (all geoms have contype = conaffinity = 0), with the
+  scene's solref/solimp set on the pair, so MuJoCo's metre-scale defaults never mix in.
+- The time step comes from the stiffest bond (k_bond / lighter voxel's mass), or from the
+  stiffest voxel's E·L/m when the robot has no bonds (see `Physics.timestep`).
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass
+from typing import Iterable, Sequence
+
+import mujoco
+import numpy as np
+
+from mjregen.errors import MjregenError
+from mjregen.grid import Material, Robot
+from mjregen.physics import Physics, PhysicsParameterError
+
+WORLD_AXES = {2: (0, 2), 3: (0, 1, 2)}  # grid axis -> world axis
+FLOOR = "floor"
+
+
+class CompileError(MjregenError, ValueError):
+    """A robot cannot be compiled with the given options (e.g. empty, bad clamp index)."""
+
+
+@dataclass(frozen=True)
+class MuscleTendons:
+    """The tendons that muscles drive: model tendons ``0 .. count-1``.
+
+    A tendon's rest length at time t is ``sqrt((L (1 + w_plus e₊(t) + w_minus e₋(t)))² +
+    lateral²)``, with e± the signed waveforms of the two muscle phases (see `simulate`).
+
+    Attributes:
+      weights: ``(count, 2)`` float, columns (w_plus, w_minus): half the strain amplitude of
+        each of the bond's voxels in that phase, summed.
+      lateral: ``(count,)`` float, m, the tendon's fixed lateral extent d.
+      voxel_size: L in m.
+    """
+
+    weights: np.ndarray
+    lateral: np.ndarray
+    voxel_size: float
+
+    @property
+    def count(self) -> int:
+        return len(self.lateral)
+
+
+@dataclass(frozen=True)
+class CompiledRobot:
+    """A robot compiled to MuJoCo.
+
+    Attributes:
+      robot, physics: what was compiled.
+      spec: the `mujoco.MjSpec` (owns the model's source).
+      model: the compiled `mujoco.MjModel`.
+      voxel_index: ``(n_voxels, dim)`` int grid indices, in body order.
+      body_ids: ``(n_voxels,)`` int MuJoCo body ids of the voxels.
+      masses: ``(n_voxels,)`` float, kg.
+      muscles: the driven tendons, or None when the robot has no muscles.
+      n_bonds: number of face bonds.
+    """
+
+    robot: Robot
+    physics: Physics
+    spec: mujoco.MjSpec
+    model: mujoco.MjModel
+    voxel_index: np.ndarray
+    body_ids: np.ndarray
+    masses: np.ndarray
+    muscles: MuscleTendons | None
+    n_bonds: int
+
+    @property
+    def timestep(self) -> float:
+        return float(self.model.opt.timestep)
+
+    def to_xml(self) -> str:
+        """MJCF text that plain `mujoco.MjModel.from_xml_string` loads into the same model."""
+        return self.spec.to_xml()
+
+
+def bond_geometry(poisson_ratio: float, voxel_size: float) -> tuple[float, float]:
+    """(a, b) in m: tendon-site offsets calibrated to beam theory (see module docstring)."""
+    return voxel_size / math.sqrt(6.0), voxel_size / (2.0 * math.sqrt(1.0 + poisson_ratio))
+
+
+def compile_robot(
+    robot: Robot,
+    *,
+    physics: Physics | None = None,
+    clamped: Iterable[Sequence[int]] = (),
+    elevation: float = 0.0,
+) -> CompiledRobot:
+    """Build the MuJoCo model of `robot`.
+
+    Args:
+      robot: a non-empty `Robot` (2D or 3D).
+      physics: materials and scene; None = the paper's (`Physics()`).
+      clamped: grid indices of voxels fixed to the world (no joint), e.g. a cantilever's root.
+      elevation: m, height of the lowest voxel's bottom face above the floor (>= 0).
+    Raises:
+      CompileError: empty robot, a clamped index that is not a voxel, negative elevation.
+      PhysicsParameterError: the robot's materials have different Poisson ratios.
+    """
+    physics = Physics() if physics is None else physics
+    if not isinstance(robot, Robot):
+        raise CompileError(f"compile_robot needs a Robot, got {type(robot).__name__}")
+    if robot.is_empty:
+        raise CompileError("cannot compile an empty robot (it has no voxels)")
+    if not (math.isfinite(elevation) and elevation >= 0.0):
+        raise CompileError(f"elevation must be a finite height >= 0 m, got {elevation!r}")
+    scene = physics.scene
+    dim = robot.dim
+    L = scene.voxel_size
+    voxels = list(robot.voxels())
+    index_of = {index: i for i, (index, _) in enumerate(voxels)}
+    clamped_set = {tuple(int(i) for i in c) for c in clamped}
+    for c in clamped_set:
+        if c not in index_of:
+            raise CompileError(f"clamped index {c} is not a voxel of the robot")
+    present = {m for _, m in voxels}
+    ratios = {physics.materials[m].poisson_ratio for m in present}
+    if len(ratios) > 1:
+        raise PhysicsParameterError(
+            f"the robot's materials have different Poisson ratios {sorted(ratios)}; bond "
+            "geometry needs one ratio per robot")
+    a, b = bond_geometry(ratios.pop(), L)
+
+    masses = np.array([physics.voxel_mass(m) for _, m in voxels])
+    grid_index = np.array([index for index, _ in voxels])
+    centres = np.zeros((len(voxels), 3))
+    centres[:, WORLD_AXES[dim]] = (grid_index + 0.5) * L
+    centres[:, :2] -= masses @ centres[:, :2] / masses.sum()
+    centres[:, 2] += elevation - (centres[:, 2].min() - L / 2)
+
+    spec = mujoco.MjSpec()
+    spec.modelname = "mjregen_robot"
+    spec.option.gravity = [0.0, 0.0, -scene.gravity]
+    spec.option.integrator = {"euler": mujoco.mjtIntegrator.mjINT_EULER,
+                              "rk4": mujoco.mjtIntegrator.mjINT_RK4}[scene.integrator]
+    if scene.floor:
+        spec.worldbody.add_geom(name=FLOOR, type=mujoco.mjtGeom.mjGEOM_PLANE,
+                                size=[0.0, 0.0, L], contype=0, conaffinity=0)
+    bodies = []
+    for i, ((index, material), centre) in enumerate(zip(voxels, centres)):
+        name = "v" + "_".join(str(k) for k in index)
+        body = spec.worldbody.add_body(name=name, pos=centre.tolist())
+        if index not in clamped_set:
+            _add_joints(body, dim)
+        body.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_BOX, size=[L / 2] * 3,
+                      mass=float(masses[i]), contype=0, conaffinity=0)
+        bodies.append(body)
+        if scene.floor and index not in clamped_set:
+            props = physics.materials[material]
+            spec.add_pair(geomname1=FLOOR, geomname2=name, condim=3,
+                          friction=[props.friction, props.friction, 0.0, 0.0, 0.0],
+                          solref=[scene.contact_timeconst, scene.contact_dampratio],
+                          solimp=[0.9, 0.95, scene.contact_width, 0.5, 2.0])
+
+    bonds = _face_bonds(grid_index, index_of, dim)
+    is_muscle = [physics.materials[m].is_muscle for _, m in voxels]
+    bonds.sort(key=lambda bond: not (is_muscle[bond[0]] or is_muscle[bond[1]]))
+    sites: dict[tuple[int, tuple[float, ...]], str] = {}
+    weights, lateral = [], []
+    max_k_per_m = 0.0
+    n_tendons = 0
+    for i, j, axis in bonds:
+        p_i, p_j = physics.materials[voxels[i][1]], physics.materials[voxels[j][1]]
+        e_bond = _series(p_i.youngs_modulus, p_j.youngs_modulus)
+        g_bond = _series(p_i.shear_modulus, p_j.shear_modulus)
+        k_bond = e_bond * L
+        max_k_per_m = max(max_k_per_m, k_bond / min(masses[i], masses[j]))
+        damping_per_stiffness = (2.0 * scene.bond_damping_ratio
+                                 * math.sqrt(0.5 * (masses[i] + masses[j]) / k_bond))
+        bond_weights = [0.0, 0.0]
+        for voxel, props in ((i, p_i), (j, p_j)):
+            if props.is_muscle:
+                bond_weights[0 if props.phase_sign > 0 else 1] += 0.5 * props.strain_amplitude
+        for offset_i, offset_j, stiffness in _bond_tendons(axis, dim, L, a, b, e_bond, g_bond):
+            tendon = spec.add_tendon(name=f"t{n_tendons}")
+            n_tendons += 1
+            tendon.wrap_site(_site(bodies[i], i, offset_i, sites))
+            tendon.wrap_site(_site(bodies[j], j, offset_j, sites))
+            extent = float(np.linalg.norm(np.subtract(offset_j, offset_i)))
+            tendon.stiffness = [stiffness, 0.0, 0.0]
+            tendon.damping = [stiffness * damping_per_stiffness, 0.0, 0.0]
+            rest = math.sqrt(L * L + extent * extent)
+            tendon.springlength = [rest, rest]
+            if is_muscle[i] or is_muscle[j]:
+                weights.append(bond_weights)
+                lateral.append(extent)
+    if not bonds:
+        max_k_per_m = max(physics.materials[m].youngs_modulus * L / physics.voxel_mass(m)
+                          for m in present)
+    spec.option.timestep = physics.timestep(max_k_per_m)
+    model = spec.compile()
+    muscles = None
+    if weights:
+        muscles = MuscleTendons(weights=np.array(weights), lateral=np.array(lateral),
+                                voxel_size=L)
+    return CompiledRobot(
+        robot=robot, physics=physics, spec=spec, model=model, voxel_index=grid_index,
+        body_ids=np.array([model.body(body.name).id for body in bodies]),
+        masses=masses, muscles=muscles, n_bonds=len(bonds))
+
+
+def _add_joints(body: mujoco.MjsBody, dim: int) -> None:
+    """Free joint in 3D; slide x, slide z, hinge y in 2D."""
+    if dim == 3:
+        body.add_freejoint()
+        return
+    body.add_joint(type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[1.0, 0.0, 0.0])
+    body.add_joint(type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0.0, 0.0, 1.0])
+    body.add_joint(type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0.0, 1.0, 0.0])
+
+
+def _series(x: float, y: float) -> float:
+    """Modulus of two equal half-lengths in series: 2xy/(x+y)."""
+    return 2.0 * x * y / (x + y)
+
+
+def _face_bonds(grid_index: np.ndarray, index_of: dict, dim: int) -> list[tuple[int, int, int]]:
+    """(i, j, world axis) for each face-neighbour pair, j the +axis neighbour of i."""
+    bonds = []
+    for i, index in enumerate(grid_index):
+        for grid_axis in range(dim):
+            neighbour = list(index)
+            neighbour[grid_axis] += 1
+            j = index_of.get(tuple(int(k) for k in neighbour))
+            if j is not None:
+                bonds.append((i, j, WORLD_AXES[dim][grid_axis]))
+    return bonds
+
+
+def _bond_tendons(axis: int, dim: int, L: float, a: float, b: float, e_bond: float,
+                  g_bond: float) -> list[tuple[tuple[float, ...], tuple[float, ...], float]]:
+    """(site offset in voxel i, site offset in voxel j, stiffness N/m) of a bond's tendons.
+
+    Offsets are 3-vectors relative to the voxel centres, perpendicular to `axis`.
+    """
+    lateral_axes = [w for w in WORLD_AXES[dim] if w != axis]
+    n = len(lateral_axes)
+    sin2 = 4 * b * b / (L * L + 4 * b * b)
+    k_diagonal = g_bond * L / (2 ** n * sin2)
+    k_axial_total = e_bond * L * (1.0 - n / 2.0)
+
+    def vector(components: dict[int, float]) -> tuple[float, ...]:
+        v = [0.0, 0.0, 0.0]
+        for w, value in components.items():
+            v[w] = value
+        return tuple(v)
+
+    tendons = []
+    for q in lateral_axes:
+        others = [w for w in lateral_axes if w != q]
+        for signs in itertools.product((-1.0, 1.0), repeat=len(others)):
+            base = {w: s * a for w, s in zip(others, signs)}
+            for direction in (-1.0, 1.0):
+                tendons.append((vector({**base, q: -direction * b}),
+                                vector({**base, q: direction * b}), k_diagonal))
+    if k_axial_total > 0.0:
+        for signs in itertools.product((-1.0, 1.0), repeat=n):
+            offset = vector({w: s * a for w, s in zip(lateral_axes, signs)})
+            tendons.append((offset, offset, k_axial_total / 2 ** n))
+    return tendons
+
+
+def _site(body: mujoco.MjsBody, voxel: int, offset: tuple[float, ...],
+          sites: dict[tuple[int, tuple[float, ...]], str]) -> str:
+    """Name of the site at `offset` in `body`, added on first use."""
+    key = (voxel, tuple(round(x, 15) for x in offset))
+    if key not in sites:
+        sites[key] = f"s{len(sites)}"
+        body.add_site(name=sites[key], pos=list(offset))
+    return sites[key]

@@ -1,0 +1,214 @@
+"""Physical parameters of materials and of the scene, in SI units; the time-step rule.
+
+Defaults follow the paper's code (Voxelyze settings, see SEED_CODE_FACTS.md): 1 mm voxels of
+1 g, E = 1e7 Pa (soft and muscle) or 5e7 Pa (hard), Poisson ratio 0.35, gravity 27.468 m/s²
+downwards, 40 Hz actuation with ±14 % linear strain, contract-only, bond damping ratio 1.
+
+Everything here is plain, frozen data validated on construction; MuJoCo appears only in
+`mjregen.compile`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, fields
+from types import MappingProxyType
+from typing import Mapping
+
+from mjregen.errors import MjregenError
+from mjregen.grid import Material
+
+WAVEFORMS = ("contract", "symmetric")
+INTEGRATORS = ("euler", "rk4")
+
+
+class PhysicsParameterError(MjregenError, ValueError):
+    """A material or scene parameter is missing, non-finite or out of its valid range."""
+
+
+def _check(name: str, value: float, *, low: float, high: float = math.inf,
+           low_open: bool = True, high_open: bool = False) -> None:
+    """Raise PhysicsParameterError unless `value` is a finite real number in the range."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise PhysicsParameterError(f"{name} must be a number, got {value!r}")
+    if not math.isfinite(value):
+        raise PhysicsParameterError(f"{name} must be finite, got {value!r}")
+    too_low = value <= low if low_open else value < low
+    too_high = value >= high if high_open else value > high
+    if too_low or too_high:
+        left = "(" if low_open else "["
+        right = ")" if high_open else "]"
+        raise PhysicsParameterError(
+            f"{name} = {value!r} is outside its valid range {left}{low}, {high}{right}"
+        )
+
+
+@dataclass(frozen=True)
+class MaterialProperties:
+    """Bulk properties of one voxel material.
+
+    Attributes:
+      youngs_modulus: E in Pa (> 0).
+      density: kg/m³ (> 0); a voxel's mass is density × voxel_size³.
+      poisson_ratio: ν in [0, 0.5); sets the shear modulus G = E / (2 (1 + ν)).
+      friction: Coulomb coefficient against the floor (>= 0). MuJoCo has one coefficient;
+        the default is the paper engine's dynamic friction 0.5, which governs sliding (its
+        static 1.0 only decides when sliding starts).
+      strain_amplitude: muscle linear strain amplitude (0 = passive, < 1); the voxel's
+        linear scale is 1 + amplitude × phase_sign × sin(2π f t) (clamped, see `Scene`).
+      phase_sign: +1, −1 (counter-phase) or 0 (passive).
+    """
+
+    youngs_modulus: float
+    density: float = 1e6
+    poisson_ratio: float = 0.35
+    friction: float = 0.5
+    strain_amplitude: float = 0.0
+    phase_sign: int = 0
+
+    def __post_init__(self) -> None:
+        _check("youngs_modulus", self.youngs_modulus, low=0.0)
+        _check("density", self.density, low=0.0)
+        _check("poisson_ratio", self.poisson_ratio, low=0.0, high=0.5, low_open=False,
+               high_open=True)
+        _check("friction", self.friction, low=0.0, low_open=False)
+        _check("strain_amplitude", self.strain_amplitude, low=0.0, high=1.0, low_open=False,
+               high_open=True)
+        if self.phase_sign not in (-1, 0, 1) or isinstance(self.phase_sign, bool):
+            raise PhysicsParameterError(f"phase_sign must be -1, 0 or +1, got {self.phase_sign!r}")
+        if (self.strain_amplitude > 0) != (self.phase_sign != 0):
+            raise PhysicsParameterError(
+                "a muscle needs both strain_amplitude > 0 and phase_sign ±1; a passive "
+                f"material needs both 0 (got amplitude {self.strain_amplitude}, sign "
+                f"{self.phase_sign})"
+            )
+
+    @property
+    def shear_modulus(self) -> float:
+        """G = E / (2 (1 + ν)) in Pa."""
+        return self.youngs_modulus / (2.0 * (1.0 + self.poisson_ratio))
+
+    @property
+    def is_muscle(self) -> bool:
+        return self.phase_sign != 0
+
+
+def paper_materials() -> Mapping[Material, MaterialProperties]:
+    """The paper's materials: soft and muscles 1e7 Pa, hard 5e7 Pa, muscles ±14 %."""
+    return MappingProxyType({
+        Material.SOFT: MaterialProperties(youngs_modulus=1e7),
+        Material.HARD: MaterialProperties(youngs_modulus=5e7),
+        Material.MUSCLE_PLUS: MaterialProperties(youngs_modulus=1e7, strain_amplitude=0.14,
+                                                 phase_sign=1),
+        Material.MUSCLE_MINUS: MaterialProperties(youngs_modulus=1e7, strain_amplitude=0.14,
+                                                  phase_sign=-1),
+    })
+
+
+@dataclass(frozen=True)
+class Scene:
+    """World, actuation, timing and numerical settings.
+
+    Attributes:
+      voxel_size: edge length L in m.
+      gravity: downward acceleration in m/s² (>= 0; 0 switches gravity off).
+      frequency: actuation frequency in Hz.
+      waveform: "contract" (the paper's build: the scale is clamped at 1, so muscles only
+        contract, red in the second half of each period, green in the first) or
+        "symmetric" (scale = 1 ± amplitude, unclamped).
+      settle_time: s without actuation before the measurement; None = the paper's (3D
+        0.05 s, 2D 1.0 s).
+      measured_time: s of actuation that the distance counts; None = the paper's (3D 0.5 s,
+        2D 0.25 s).
+      bond_damping_ratio: ζ of the bonds, relative to one voxel's mass (the paper's
+        convention: c = 2 ζ sqrt(m k)).
+      integrator: "euler" (MuJoCo's semi-implicit Euler) or "rk4".
+      timestep_safety: factor on the time-step rule (see `timestep`).
+      floor: whether the floor plane (z = 0) exists.
+      contact_timeconst: s, MuJoCo solref time constant of voxel–floor contacts.
+      contact_dampratio: MuJoCo solref damping ratio of voxel–floor contacts.
+      contact_width: m, MuJoCo solimp width (penetration over which the contact stiffens).
+    """
+
+    voxel_size: float = 1e-3
+    gravity: float = 27.468
+    frequency: float = 40.0
+    waveform: str = "contract"
+    settle_time: float | None = None
+    measured_time: float | None = None
+    bond_damping_ratio: float = 1.0
+    integrator: str = "euler"
+    timestep_safety: float = 1.0
+    floor: bool = True
+    contact_timeconst: float = 3e-4
+    contact_dampratio: float = 1.0
+    contact_width: float = 1e-5
+
+    def __post_init__(self) -> None:
+        _check("voxel_size", self.voxel_size, low=0.0)
+        _check("gravity", self.gravity, low=0.0, low_open=False)
+        _check("frequency", self.frequency, low=0.0)
+        for name in ("settle_time", "measured_time"):
+            value = getattr(self, name)
+            if value is not None:
+                _check(name, value, low=0.0, low_open=False)
+        _check("bond_damping_ratio", self.bond_damping_ratio, low=0.0, low_open=False)
+        _check("timestep_safety", self.timestep_safety, low=0.0)
+        _check("contact_timeconst", self.contact_timeconst, low=0.0)
+        _check("contact_dampratio", self.contact_dampratio, low=0.0)
+        _check("contact_width", self.contact_width, low=0.0)
+        if self.waveform not in WAVEFORMS:
+            raise PhysicsParameterError(
+                f"waveform must be one of {WAVEFORMS}, got {self.waveform!r}")
+        if self.integrator not in INTEGRATORS:
+            raise PhysicsParameterError(
+                f"integrator must be one of {INTEGRATORS}, got {self.integrator!r} "
+                "(MuJoCo's implicit integrators mis-handle damped tendons between free bodies)")
+        if not isinstance(self.floor, bool):
+            raise PhysicsParameterError(f"floor must be True or False, got {self.floor!r}")
+
+    def timing(self, dim: int) -> tuple[float, float]:
+        """(settle_time, measured_time) in s for a `dim`-dimensional robot."""
+        settle = self.settle_time if self.settle_time is not None else PAPER_TIMES[dim][0]
+        measured = self.measured_time if self.measured_time is not None else PAPER_TIMES[dim][1]
+        return settle, measured
+
+
+PAPER_TIMES = {3: (0.05, 0.5), 2: (1.0, 0.25)}
+
+
+@dataclass(frozen=True)
+class Physics:
+    """Materials (one per non-empty `Material` code) and the scene."""
+
+    materials: Mapping[Material, MaterialProperties] = field(default_factory=paper_materials)
+    scene: Scene = field(default_factory=Scene)
+
+    def __post_init__(self) -> None:
+        missing = [m.name for m in Material if m != Material.EMPTY and m not in self.materials]
+        if missing:
+            raise PhysicsParameterError(f"materials missing for {', '.join(missing)}")
+        for material, props in self.materials.items():
+            if not isinstance(props, MaterialProperties):
+                raise PhysicsParameterError(
+                    f"materials[{material!r}] must be MaterialProperties, got {type(props)}")
+        object.__setattr__(self, "materials", MappingProxyType(dict(self.materials)))
+
+    def replace_scene(self, **changes: object) -> Physics:
+        """A copy with some `Scene` fields changed (validated)."""
+        values = {f.name: getattr(self.scene, f.name) for f in fields(Scene)}
+        values.update(changes)
+        return Physics(materials=self.materials, scene=Scene(**values))
+
+    def voxel_mass(self, material: Material) -> float:
+        """Mass of one voxel of `material` in kg."""
+        return self.materials[material].density * self.scene.voxel_size ** 3
+
+    def timestep(self, stiffness_per_mass: float) -> float:
+        """Time step in s for the stiffest spring present.
+
+        The paper engine's rule: dt = safety × 0.9 / (2π sqrt(k/m)), with k/m in s⁻² the
+        largest ratio of a spring's stiffness (N/m) to its voxel's mass (kg).
+        """
+        _check("stiffness_per_mass", stiffness_per_mass, low=0.0)
+        return self.scene.timestep_safety * 0.9 / (2.0 * math.pi * math.sqrt(stiffness_per_mass))

@@ -1,0 +1,218 @@
+"""Settle, actuate, measure: one locomotion evaluation of a robot, with a stability guard.
+
+`simulate(robot)` compiles the robot (`mjregen.compile`), lets it settle without actuation
+for the scene's settle time, then drives the muscles for the measured time and returns a
+`Result`. The hot loop is `mujoco.mj_step`; the only per-step Python work is writing the
+driven tendons' rest lengths (one vector expression) when the robot has muscles.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from mjregen.compile import CompiledRobot, MuscleTendons, compile_robot
+from mjregen.grid import Robot
+from mjregen.physics import Physics, PhysicsParameterError, Scene
+
+VOXEL_COST = 0.0583  # 3D fitness penalty per voxel (≈ 20/343, the paper's)
+EMPTY_FITNESS = {3: -20.0, 2: 0.0}  # the paper's score of a robot without voxels
+UNSTABLE_FITNESS = {3: -21.0, 2: -1.0}  # below every stable robot and the empty one
+RUNAWAY_SPEED = 5000.0  # voxel lengths per second (5 m/s at 1 mm; walkers reach ~0.3 m/s)
+CHECK_EVERY = 200  # steps between checks for NaN and runaway speed
+WARNINGS = [(name, int(value)) for name, value in mujoco.mjtWarning.__members__.items()
+            if name != "mjNWARNING"]
+
+
+@dataclass(frozen=True)
+class Result:
+    """Outcome of one evaluation.
+
+    Attributes:
+      distance: planar (x, y) displacement of the centre of mass, in voxel lengths, from the
+        end of the settle to the end of the run (NaN when unstable).
+      fitness: the paper's: 3D distance − 0.0583·n_voxels, 2D distance; empty robot −20 (3D)
+        or 0 (2D); unstable run −21 (3D) or −1 (2D).
+      n_voxels: number of voxels.
+      stable: False when the state became NaN, MuJoCo warned, or a voxel ran away.
+      reason: why the run is unstable ("" when stable).
+      steps: number of `mj_step` calls made.
+      sim_time: simulated seconds.
+      timestep: s.
+      wall_time, cpu_time: seconds spent compiling and simulating (wall clock, process CPU).
+      times: ``(steps + 1,)`` s, when `record`; else None.
+      com: ``(steps + 1, 3)`` m, centre of mass at `times`, when `record`; else None.
+    """
+
+    distance: float
+    fitness: float
+    n_voxels: int
+    stable: bool
+    reason: str
+    steps: int
+    sim_time: float
+    timestep: float
+    wall_time: float
+    cpu_time: float
+    times: np.ndarray | None = None
+    com: np.ndarray | None = None
+
+
+class Simulation:
+    """Steps a MuJoCo model of a robot with its muscle drive and stability guard.
+
+    Works on any model with the tendon layout of `compile_robot` (also one loaded from the
+    exported XML). It rewrites ``model.tendon_lengthspring`` of the driven tendons, so give
+    each `Simulation` its own model.
+
+    Args:
+      model: the MuJoCo model.
+      scene: actuation and timing settings.
+      muscles: the driven tendons (None: passive robot).
+      actuation_start: s, time at which the muscle waveform starts (phase 0).
+    """
+
+    def __init__(self, model: mujoco.MjModel, *, scene: Scene,
+                 muscles: MuscleTendons | None, actuation_start: float) -> None:
+        self.model = model
+        self.data = mujoco.MjData(model)
+        self.steps = 0
+        self._scene = scene
+        self._start = actuation_start
+        self._muscles = muscles
+        if muscles is not None:
+            length = muscles.voxel_size
+            self._base = np.full(muscles.count, length)
+            self._plus = length * muscles.weights[:, 0]
+            self._minus = length * muscles.weights[:, 1]
+            self._lateral2 = muscles.lateral ** 2
+            self._rest = self.model.tendon_lengthspring[: muscles.count]
+        dof_speed = np.ones(model.nv)  # 1/(m/s) for slides, L/(m/s) for rotations
+        dof_speed[model.jnt_dofadr[model.jnt_type == mujoco.mjtJoint.mjJNT_HINGE]] = 0.0
+        for adr in model.jnt_dofadr[model.jnt_type == mujoco.mjtJoint.mjJNT_FREE]:
+            dof_speed[adr + 3: adr + 6] = 0.0
+        voxel = scene.voxel_size
+        self._inv_limit = np.where(dof_speed > 0, 1.0, voxel) / (RUNAWAY_SPEED * voxel)
+
+    def strains(self, t: float) -> tuple[float, float]:
+        """Signed strains (e₊, e₋) of the two muscle phases at time `t` (s)."""
+        if t < self._start:
+            return 0.0, 0.0
+        wave = math.sin(2.0 * math.pi * self._scene.frequency * (t - self._start))
+        if self._scene.waveform == "contract":
+            return min(0.0, wave), min(0.0, -wave)
+        return wave, -wave
+
+    def run(self, n_steps: int, *, com: np.ndarray | None = None) -> str:
+        """Advance `n_steps` steps; return "" or the reason the state became unstable.
+
+        Args:
+          n_steps: number of `mj_step` calls.
+          com: optional ``(n_steps, 3)`` array, filled with the centre of mass (m) at the
+            start of each step.
+        """
+        model, data = self.model, self.data
+        dt = model.opt.timestep
+        drive = self._muscles is not None
+        for k in range(n_steps):
+            if drive:
+                plus, minus = self.strains((self.steps + k) * dt)
+                axial = self._base + self._plus * plus + self._minus * minus
+                self._rest[:] = np.sqrt(axial * axial + self._lateral2)[:, None]
+            mujoco.mj_step(model, data)
+            if com is not None:
+                com[k] = data.subtree_com[0]
+            if (k + 1) % CHECK_EVERY == 0 or k + 1 == n_steps:
+                reason = self.check()
+                if reason:
+                    self.steps += k + 1
+                    return reason
+        self.steps += n_steps
+        return ""
+
+    def check(self) -> str:
+        """"" if the state is finite, warning-free and slower than RUNAWAY_SPEED."""
+        data = self.data
+        for name, warning in WARNINGS:
+            if data.warning[warning].number > 0:
+                return f"MuJoCo warning {name}"
+        if not (np.all(np.isfinite(data.qpos)) and np.all(np.isfinite(data.qvel))):
+            return "NaN or infinite state"
+        if data.qvel.size and np.max(np.abs(data.qvel) * self._inv_limit) > 1.0:
+            return f"runaway speed (above {RUNAWAY_SPEED:g} voxel lengths per second)"
+        return ""
+
+    def com(self) -> np.ndarray:
+        """Centre of mass ``(3,)`` in m of the current state."""
+        mujoco.mj_kinematics(self.model, self.data)
+        mujoco.mj_comPos(self.model, self.data)
+        return self.data.subtree_com[0].copy()
+
+
+def simulation_of(compiled: CompiledRobot) -> Simulation:
+    """A `Simulation` of a compiled robot with actuation after the scene's settle time."""
+    scene = compiled.physics.scene
+    settle, _ = scene.timing(compiled.robot.dim)
+    return Simulation(compiled.model, scene=scene, muscles=compiled.muscles,
+                      actuation_start=settle)
+
+
+def simulate(
+    robot: Robot,
+    *,
+    physics: Physics | None = None,
+    duration: float | None = None,
+    record: bool = False,
+) -> Result:
+    """Evaluate a robot's locomotion: settle, actuate, measure.
+
+    Args:
+      robot: any valid `Robot`, 2D or 3D (an empty one scores without simulating).
+      physics: materials and scene; None = the paper's.
+      duration: s of actuation that the distance counts; None = the scene's measured time.
+      record: also return the centre-of-mass trajectory (every step).
+    Returns:
+      A `Result`; an unstable run is marked ``stable=False`` with the penalty fitness and
+      never raises.
+    Raises:
+      PhysicsParameterError: `duration` negative or not finite.
+    """
+    wall0, cpu0 = time.perf_counter(), time.process_time()
+    physics = Physics() if physics is None else physics
+    if duration is not None and not (math.isfinite(duration) and duration >= 0):
+        raise PhysicsParameterError(f"duration must be a finite time >= 0 s, got {duration!r}")
+    dim = robot.dim
+    if robot.is_empty:
+        return Result(distance=0.0, fitness=EMPTY_FITNESS[dim], n_voxels=0, stable=True,
+                      reason="", steps=0, sim_time=0.0, timestep=0.0,
+                      wall_time=time.perf_counter() - wall0,
+                      cpu_time=time.process_time() - cpu0)
+    compiled = compile_robot(robot, physics=physics)
+    settle, measured = physics.scene.timing(dim)
+    measured = measured if duration is None else duration
+    dt = compiled.timestep
+    n_settle, n_measure = round(settle / dt), round(measured / dt)
+    sim = simulation_of(compiled)
+    com = np.empty((n_settle + n_measure + 1, 3)) if record else None
+    reason = sim.run(n_settle, com=None if com is None else com[:n_settle])
+    start = sim.com()
+    if not reason:
+        reason = sim.run(n_measure, com=None if com is None else com[n_settle:-1])
+    end = sim.com()
+    if com is not None:
+        com[sim.steps] = end
+        com = com[: sim.steps + 1]
+    planar = [0, 1] if dim == 3 else [0]
+    distance = float(np.linalg.norm(end[planar] - start[planar])) / physics.scene.voxel_size
+    stable = not reason
+    fitness = (distance - VOXEL_COST * robot.n_voxels if dim == 3 else distance) if stable \
+        else UNSTABLE_FITNESS[dim]
+    return Result(
+        distance=distance if stable else math.nan, fitness=fitness, n_voxels=robot.n_voxels,
+        stable=stable, reason=reason, steps=sim.steps, sim_time=sim.steps * dt, timestep=dt,
+        wall_time=time.perf_counter() - wall0, cpu_time=time.process_time() - cpu0,
+        times=None if com is None else np.arange(sim.steps + 1) * dt, com=com)
