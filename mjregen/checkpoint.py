@@ -60,8 +60,13 @@ def load_nca(path: str | os.PathLike) -> tuple[NCA, dict]:
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"NCA checkpoint not found: {path}")
+    if path.suffix != ".npz":
+        raise CheckpointError(f"NCA checkpoints are .npz files; got {str(path)!r}")
     try:
-        with np.load(path, allow_pickle=False) as archive:
+        archive = np.load(path, allow_pickle=False)
+        if not isinstance(archive, np.lib.npyio.NpzFile):
+            raise CheckpointError(f"{path} holds a single array, not an mjregen NCA checkpoint")
+        with archive:
             fields = {name: archive[name] for name in ("format", "config", "metadata", "genome")}
     except KeyError as error:
         raise CheckpointError(f"{path} is not an mjregen NCA checkpoint (missing {error})") from None

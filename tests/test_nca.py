@@ -305,6 +305,13 @@ def test_checkpoint_errors(tmp_path):
         load_nca(tmp_path / "missing.npz")
     with pytest.raises(CheckpointError, match=".npz"):
         save_nca(tmp_path / "nca.pt", nca)
+    np.save(tmp_path / "robot.npy", np.zeros((7, 7)))
+    with pytest.raises(CheckpointError, match=".npz"):
+        load_nca(tmp_path / "robot.npy")
+    disguised = tmp_path / "disguised.npz"
+    disguised.write_bytes((tmp_path / "robot.npy").read_bytes())
+    with pytest.raises(CheckpointError, match="single array"):
+        load_nca(disguised)
     corrupt = tmp_path / "corrupt.npz"
     corrupt.write_bytes(b"PK\x03\x04 not really a zip")
     with pytest.raises(CheckpointError, match="not a readable"):
