@@ -9,14 +9,7 @@ import pytest
 from mjregen.errors import GridFileError, InvalidGridError
 from mjregen.grid import Material, Robot, clean_grids
 
-PAPER_ROBOTS = Path(__file__).resolve().parents[2] / "shared" / "paper" / "robots"
-
-
-def _paper_robot_paths() -> list[Path]:
-    paths = sorted(PAPER_ROBOTS.glob("*.npy"))
-    if not paths:
-        pytest.skip(f"the paper's robots are not at {PAPER_ROBOTS}")
-    return paths
+PAPER_ROBOTS = Path(__file__).resolve().parents[1] / "assets" / "robots" / "paper"
 
 
 def _grid3(*voxels: tuple[int, int, int], size: int = 9, code: int = 1) -> np.ndarray:
@@ -180,9 +173,12 @@ def test_fast_cleaning_equals_the_papers_sweeps_on_random_grids(dim, size):
 
 
 def test_paper_robots_are_already_clean():
-    for path in _paper_robot_paths():
-        robot = Robot.load(path)
-        assert robot.cleaned() == robot, path.name
+    expected = {"biped": (233, 44, 2, 187, 0), "tripod": (68, 0, 22, 46, 0), "multiped": (203, 0, 24, 174, 5)}
+    for name, (voxels, *materials) in expected.items():
+        robot = Robot.load(PAPER_ROBOTS / f"{name}.npy")
+        counts = robot.material_counts()
+        assert (robot.n_voxels, *[counts[m] for m in list(Material)[1:]]) == (voxels, *materials)
+        assert robot.cleaned() == robot, name
 
 
 # --- similarity and damage -----------------------------------------------------------------
