@@ -173,7 +173,7 @@ def compile_robot(
 
     spec = mujoco.MjSpec()
     spec.modelname = "mjregen_robot"
-    spec.option.gravity = [0.0, 0.0, -scene.gravity]
+    spec.option.gravity = _mjcf([0.0, 0.0, -scene.gravity])
     spec.option.integrator = {"euler": mujoco.mjtIntegrator.mjINT_EULER,
                               "rk4": mujoco.mjtIntegrator.mjINT_RK4}[scene.integrator]
     if scene.floor:
@@ -182,18 +182,18 @@ def compile_robot(
     bodies = []
     for i, ((index, material), centre) in enumerate(zip(voxels, centres)):
         name = "v" + "_".join(str(k) for k in index)
-        body = spec.worldbody.add_body(name=name, pos=centre.tolist())
+        body = spec.worldbody.add_body(name=name, pos=_mjcf(centre))
         if index not in clamped_set:
             _add_joints(body, dim)
-        body.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_BOX, size=[L / 2] * 3,
-                      mass=float(masses[i]), contype=0, conaffinity=0)
+        body.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_BOX, size=_mjcf([L / 2] * 3),
+                      mass=_mjcf(masses[i]), contype=0, conaffinity=0)
         bodies.append(body)
         if scene.floor and index not in clamped_set:
             props = physics.materials[material]
             spec.add_pair(geomname1=FLOOR, geomname2=name, condim=3,
-                          friction=[props.friction, props.friction, 0.0, 0.0, 0.0],
-                          solref=[scene.contact_timeconst, scene.contact_dampratio],
-                          solimp=[0.9, 0.95, scene.contact_width, 0.5, 2.0])
+                          friction=_mjcf([props.friction, props.friction, 0.0, 0.0, 0.0]),
+                          solref=_mjcf([scene.contact_timeconst, scene.contact_dampratio]),
+                          solimp=_mjcf([0.9, 0.95, scene.contact_width, 0.5, 2.0]))
 
     bonds = _face_bonds(grid_index, index_of, dim)
     is_muscle = [physics.materials[m].is_muscle for _, m in voxels]
@@ -219,18 +219,17 @@ def compile_robot(
             n_tendons += 1
             tendon.wrap_site(_site(bodies[i], i, offset_i, sites))
             tendon.wrap_site(_site(bodies[j], j, offset_j, sites))
-            extent = float(np.linalg.norm(np.subtract(offset_j, offset_i)))
-            tendon.stiffness = [stiffness, 0.0, 0.0]
-            tendon.damping = [stiffness * damping_per_stiffness, 0.0, 0.0]
-            rest = math.sqrt(L * L + extent * extent)
-            tendon.springlength = [rest, rest]
+            extent = float(np.linalg.norm(np.subtract(_mjcf(offset_j), _mjcf(offset_i))))
+            tendon.stiffness = _mjcf([stiffness, 0.0, 0.0])
+            tendon.damping = _mjcf([stiffness * damping_per_stiffness, 0.0, 0.0])
+            tendon.springlength = _mjcf([math.sqrt(L * L + extent * extent)] * 2)
             if is_muscle[i] or is_muscle[j]:
                 weights.append(bond_weights)
                 lateral.append(extent)
     if not bonds:
         max_k_per_m = max(physics.materials[m].youngs_modulus * L / physics.voxel_mass(m)
                           for m in present)
-    spec.option.timestep = physics.timestep(max_k_per_m)
+    spec.option.timestep = _mjcf(physics.timestep(max_k_per_m))
     model = spec.compile()
     muscles = None
     if weights:
@@ -240,6 +239,17 @@ def compile_robot(
         robot=robot, physics=physics, spec=spec, model=model, voxel_index=grid_index,
         body_ids=np.array([model.body(body.name).id for body in bodies]),
         masses=masses, muscles=muscles, n_bonds=len(bonds))
+
+
+def _mjcf(values: float | Sequence[float] | np.ndarray) -> float | list[float]:
+    """`values` rounded to the 6 significant digits that MJCF export writes.
+
+    Every number the model gets passes through here, so the exported XML reproduces the
+    compiled model bit for bit.
+    """
+    if np.ndim(values) == 0:
+        return float(f"{float(values):.6g}")
+    return [float(f"{float(v):.6g}") for v in values]
 
 
 def _add_joints(body: mujoco.MjsBody, dim: int) -> None:
@@ -309,5 +319,5 @@ def _site(body: mujoco.MjsBody, voxel: int, offset: tuple[float, ...],
     key = (voxel, tuple(round(x, 15) for x in offset))
     if key not in sites:
         sites[key] = f"s{len(sites)}"
-        body.add_site(name=sites[key], pos=list(offset))
+        body.add_site(name=sites[key], pos=_mjcf(offset))
     return sites[key]
