@@ -170,6 +170,7 @@ def compile_robot(
     centres[:, WORLD_AXES[dim]] = (grid_index + 0.5) * L
     centres[:, :2] -= masses @ centres[:, :2] / masses.sum()
     centres[:, 2] += elevation - (centres[:, 2].min() - L / 2)
+    centres = np.round(centres, 12)  # to the picometre: no 1e-19 residues of the centring
 
     spec = mujoco.MjSpec()
     spec.modelname = "mjregen_robot"

@@ -1,0 +1,112 @@
+"""Compiler: model structure, placement, only what the robot needs, MJCF export."""
+
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+
+from mjregen.compile import CompileError, compile_robot
+from mjregen.grid import Material, Robot
+from mjregen.physics import MaterialProperties, Physics, PhysicsParameterError
+from mjregen.simulate import Simulation
+
+ROBOTS = Path(__file__).resolve().parents[1] / "assets" / "robots"
+L = 1e-3
+
+
+def test_3d_structure_body_per_voxel_free_joint_8_tendons_per_bond():
+    robot = Robot.from_body(np.ones((3, 2, 2), dtype=np.int8))  # 12 voxels, 20 bonds
+    compiled = compile_robot(robot)
+    model = compiled.model
+    assert compiled.n_bonds == 2 * 2 * 2 + 3 * 2 * 1 + 3 * 1 * 2 == 20
+    assert model.nbody == 12 + 1 and model.njnt == 12
+    assert np.all(model.jnt_type == mujoco.mjtJoint.mjJNT_FREE)
+    assert model.ntendon == 8 * 20
+    assert model.npair == 12  # voxel-floor pairs only
+    assert model.nu == 0 and compiled.muscles is None  # no muscle machinery without muscles
+    assert np.all(model.geom_contype == 0) and np.all(model.geom_conaffinity == 0)
+    assert np.allclose(compiled.masses, 1e-3)
+
+
+def test_2d_structure_slide_slide_hinge_4_tendons_per_bond():
+    robot = Robot.from_body(np.ones((3, 2), dtype=np.int8))  # 6 voxels, 7 bonds
+    model = compile_robot(robot).model
+    assert model.njnt == 3 * 6 and model.nv == 3 * 6
+    types = model.jnt_type.reshape(6, 3)
+    assert np.all(types == [mujoco.mjtJoint.mjJNT_SLIDE, mujoco.mjtJoint.mjJNT_SLIDE,
+                            mujoco.mjtJoint.mjJNT_HINGE])
+    assert np.allclose(model.jnt_axis.reshape(6, 3, 3)[0], [[1, 0, 0], [0, 0, 1], [0, 1, 0]])
+    assert model.ntendon == 4 * 7
+
+
+def test_robot_starts_resting_on_floor_centred_at_origin():
+    robot = Robot.load(ROBOTS / "bimorph_walker_3d.npy")
+    compiled = compile_robot(robot)
+    data = mujoco.MjData(compiled.model)
+    mujoco.mj_forward(compiled.model, data)
+    centres = data.xpos[compiled.body_ids]
+    assert centres[:, 2].min() - L / 2 == pytest.approx(0.0, abs=1e-12)
+    com = compiled.masses @ centres / compiled.masses.sum()
+    assert np.allclose(com[:2], 0.0, atol=1e-12)
+    raised = compile_robot(robot, elevation=2e-3).model
+    assert raised.body_pos[1, 2] - compiled.model.body_pos[1, 2] == pytest.approx(2e-3)
+
+
+def test_bonds_start_unstressed():
+    """At the lattice positions every tendon sits at its rest length: no force, no drift."""
+    robot = Robot.from_body(np.array([[[1, 2], [3, 4]], [[2, 1], [4, 3]]], dtype=np.int8))
+    compiled = compile_robot(robot)
+    data = mujoco.MjData(compiled.model)
+    mujoco.mj_forward(compiled.model, data)
+    assert np.allclose(data.ten_length, compiled.model.tendon_lengthspring[:, 0], rtol=1e-6)
+
+
+def test_timestep_from_stiffest_bond_present():
+    soft = compile_robot(Robot.from_body(np.ones((2, 1, 1), dtype=np.int8)))
+    hard = compile_robot(Robot.from_body(np.full((2, 1, 1), 2, dtype=np.int8)))
+    lone = compile_robot(Robot.from_body(np.ones((1, 1, 1), dtype=np.int8)))
+    # the paper engine's steps (cases.md): 4.5296e-5 s soft, 2.0257e-5 s with hard bonds
+    assert soft.timestep == pytest.approx(4.5296e-5, rel=1e-4)
+    assert hard.timestep == pytest.approx(2.0257e-5, rel=1e-4)
+    assert lone.timestep == pytest.approx(soft.timestep, rel=1e-5)
+
+
+def test_muscle_tendons_come_first_and_cover_exactly_the_muscle_bonds():
+    # soft-red-soft-soft bar: bonds 0-1 and 1-2 touch the muscle, 2-3 does not
+    robot = Robot.from_body(np.array([[[1]], [[3]], [[1]], [[1]]], dtype=np.int8))
+    compiled = compile_robot(robot)
+    assert compiled.muscles is not None and compiled.muscles.count == 2 * 8
+    assert np.allclose(compiled.muscles.weights, [0.07, 0.0])  # half of 0.14, red phase
+    assert compiled.model.ntendon == 3 * 8
+
+
+def test_bad_input_raises_clear_errors():
+    with pytest.raises(CompileError, match="empty"):
+        compile_robot(Robot(np.zeros((5, 5, 5), dtype=np.int8)))
+    robot = Robot.from_body(np.ones((2, 1, 1), dtype=np.int8))
+    with pytest.raises(CompileError, match="not a voxel"):
+        compile_robot(robot, clamped=[(0, 0, 0)])
+    with pytest.raises(CompileError, match="elevation"):
+        compile_robot(robot, elevation=-1e-3)
+    materials = dict(Physics().materials)
+    materials[Material.HARD] = MaterialProperties(youngs_modulus=5e7, poisson_ratio=0.2)
+    mixed = Robot.from_body(np.array([[[1]], [[2]]], dtype=np.int8))
+    with pytest.raises(PhysicsParameterError, match="Poisson"):
+        compile_robot(mixed, physics=Physics(materials=materials))
+
+
+@pytest.mark.parametrize("name", ["bimorph_walker_3d", "bimorph_walker_2d"])
+def test_exported_xml_reproduces_the_trajectory_bit_for_bit(name):
+    compiled = compile_robot(Robot.load(ROBOTS / f"{name}.npy"))
+    plain = mujoco.MjModel.from_xml_string(compiled.to_xml())
+    assert "mjregen" not in type(plain).__module__
+    # actuation from t = 0 so the muscles act within the short run
+    ours, exported = (Simulation(model, scene=compiled.physics.scene, muscles=compiled.muscles,
+                                 actuation_start=0.0) for model in (compiled.model, plain))
+    n = 1500
+    a, b = np.empty((n, 3)), np.empty((n, 3))
+    assert ours.run(n, com=a) == "" and exported.run(n, com=b) == ""
+    assert np.array_equal(a, b)
+    assert np.array_equal(ours.data.qpos, exported.data.qpos)
+    assert np.ptp(a[:, 0]) > 0  # it did move

@@ -1,0 +1,78 @@
+"""Physics parameters: the paper's defaults, the time-step rule, and clear errors."""
+
+import math
+
+import pytest
+
+from mjregen.grid import Material
+from mjregen.physics import MaterialProperties, Physics, PhysicsParameterError, Scene
+
+
+def test_defaults_are_the_papers():
+    physics = Physics()
+    soft, hard = physics.materials[Material.SOFT], physics.materials[Material.HARD]
+    red, green = physics.materials[Material.MUSCLE_PLUS], physics.materials[Material.MUSCLE_MINUS]
+    assert (soft.youngs_modulus, hard.youngs_modulus) == (1e7, 5e7)
+    assert red.youngs_modulus == green.youngs_modulus == 1e7
+    assert physics.voxel_mass(Material.SOFT) == pytest.approx(1e-3, rel=1e-12)  # 1 g
+    assert (red.phase_sign, green.phase_sign) == (1, -1)
+    assert red.strain_amplitude == green.strain_amplitude == 0.14
+    assert not soft.is_muscle and red.is_muscle
+    scene = physics.scene
+    assert (scene.gravity, scene.frequency, scene.waveform) == (27.468, 40.0, "contract")
+    assert scene.timing(3) == (0.05, 0.5) and scene.timing(2) == (1.0, 0.25)
+    assert soft.shear_modulus == pytest.approx(1e7 / 2.7)
+
+
+def test_timestep_rule_matches_the_paper_engine():
+    # cases.md: the engine's step is 4.5296e-5 s for soft bodies, 2.0257e-5 s with hard voxels
+    physics = Physics()
+    assert physics.timestep(1e7 * 1e-3 / 1e-3) == pytest.approx(4.5296e-5, rel=1e-4)
+    assert physics.timestep(5e7 * 1e-3 / 1e-3) == pytest.approx(2.0257e-5, rel=1e-4)
+    half = Physics(scene=Scene(timestep_safety=0.5))
+    assert half.timestep(1e7) == pytest.approx(0.5 * physics.timestep(1e7), rel=1e-12)
+
+
+@pytest.mark.parametrize("kwargs, word", [
+    (dict(youngs_modulus=0.0), "youngs_modulus"),
+    (dict(youngs_modulus=-1e7), "youngs_modulus"),
+    (dict(youngs_modulus=math.nan), "finite"),
+    (dict(youngs_modulus=1e7, density=0.0), "density"),
+    (dict(youngs_modulus=1e7, poisson_ratio=0.5), "poisson_ratio"),
+    (dict(youngs_modulus=1e7, friction=-0.1), "friction"),
+    (dict(youngs_modulus=1e7, strain_amplitude=0.14), "muscle"),
+    (dict(youngs_modulus=1e7, strain_amplitude=1.2, phase_sign=1), "strain_amplitude"),
+    (dict(youngs_modulus=1e7, strain_amplitude=0.1, phase_sign=2), "phase_sign"),
+    (dict(youngs_modulus="stiff"), "number"),
+])
+def test_bad_material_raises_naming_the_parameter(kwargs, word):
+    with pytest.raises(PhysicsParameterError, match=word):
+        MaterialProperties(**kwargs)
+
+
+@pytest.mark.parametrize("kwargs, word", [
+    (dict(voxel_size=0.0), "voxel_size"),
+    (dict(gravity=math.inf), "finite"),
+    (dict(frequency=-40.0), "frequency"),
+    (dict(settle_time=-1.0), "settle_time"),
+    (dict(timestep_safety=0.0), "timestep_safety"),
+    (dict(timestep_safety=math.nan), "finite"),
+    (dict(waveform="square"), "waveform"),
+    (dict(integrator="implicitfast"), "integrator"),
+    (dict(contact_timeconst=0.0), "contact_timeconst"),
+    (dict(floor=1), "floor"),
+])
+def test_bad_scene_raises_naming_the_parameter(kwargs, word):
+    with pytest.raises(PhysicsParameterError, match=word):
+        Scene(**kwargs)
+
+
+def test_physics_needs_every_material_and_copies_changes():
+    materials = dict(Physics().materials)
+    del materials[Material.HARD]
+    with pytest.raises(PhysicsParameterError, match="HARD"):
+        Physics(materials=materials)
+    changed = Physics().replace_scene(gravity=0.0)
+    assert changed.scene.gravity == 0.0 and Physics().scene.gravity == 27.468
+    with pytest.raises(PhysicsParameterError, match="gravity"):
+        Physics().replace_scene(gravity=-1.0)
