@@ -1,0 +1,217 @@
+"""Evaluation backends: run one function over many items, serially, on local processes or
+threads, or on a Ray cluster, behind one interface.
+
+Every backend returns one `Outcome` per item, in item order, whatever order the work
+finished in, so results never depend on the backend. A call that raises, or whose worker
+process dies, is retried once; if it fails again its `Outcome` carries the error instead of
+a value, and the other items are unaffected.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as futures
+import multiprocessing
+import os
+import traceback
+from dataclasses import dataclass
+from typing import Any, Callable, Generic, Sequence, TypeVar
+
+T = TypeVar("T")
+R = TypeVar("R")
+
+MAX_ATTEMPTS = 2  # the first try and one retry
+
+
+@dataclass(frozen=True)
+class Outcome(Generic[R]):
+    """Result of one item: `value` when it succeeded, else `error` (a one-line reason)."""
+
+    value: R | None
+    error: str | None
+    attempts: int
+
+    @property
+    def ok(self) -> bool:
+        return self.error is None
+
+
+def _describe(error: BaseException) -> str:
+    last = traceback.format_exception_only(type(error), error)[-1].strip()
+    return last.replace("\n", " ")
+
+
+class Backend:
+    """Common interface. Use as a context manager, or call `close()` when done."""
+
+    name = "base"
+
+    def __init__(self, workers: int = 1) -> None:
+        if workers < 1:
+            raise ValueError(f"workers must be at least 1, got {workers}")
+        self.workers = workers
+
+    def map(self, fn: Callable[[T], R], items: Sequence[T]) -> list[Outcome[R]]:
+        """Apply `fn` (a picklable top-level function for process/Ray backends) to every item."""
+        raise NotImplementedError
+
+    def close(self) -> None:
+        """Release workers; the backend cannot be used afterwards."""
+
+    def __enter__(self) -> Backend:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.close()
+
+
+class SerialBackend(Backend):
+    """Everything in this process, one item after another."""
+
+    name = "serial"
+
+    def map(self, fn: Callable[[T], R], items: Sequence[T]) -> list[Outcome[R]]:
+        outcomes = []
+        for item in items:
+            error = None
+            for attempt in range(1, MAX_ATTEMPTS + 1):
+                try:
+                    outcomes.append(Outcome(fn(item), None, attempt))
+                    break
+                except Exception as exc:  # noqa: BLE001 - contained and reported per item
+                    error = _describe(exc)
+            else:
+                outcomes.append(Outcome(None, error, MAX_ATTEMPTS))
+        return outcomes
+
+
+class _ExecutorBackend(Backend):
+    """A `concurrent.futures` pool; rebuilt if a worker process dies."""
+
+    def __init__(self, workers: int) -> None:
+        super().__init__(workers)
+        self._pool = self._make_pool()
+
+    def _make_pool(self) -> futures.Executor:
+        raise NotImplementedError
+
+    def map(self, fn: Callable[[T], R], items: Sequence[T]) -> list[Outcome[R]]:
+        results: dict[int, Outcome[R]] = {}
+        pending = list(range(len(items)))
+        errors: dict[int, str] = {}
+        for attempt in range(1, MAX_ATTEMPTS + 1):
+            submitted = {self._pool.submit(fn, items[i]): i for i in pending}
+            pending = []
+            broken = False
+            for future in futures.as_completed(submitted):
+                index = submitted[future]
+                try:
+                    results[index] = Outcome(future.result(), None, attempt)
+                except futures.process.BrokenProcessPool as exc:
+                    broken = True
+                    errors[index] = f"worker process died ({_describe(exc)})"
+                    pending.append(index)
+                except Exception as exc:  # noqa: BLE001 - contained and reported per item
+                    errors[index] = _describe(exc)
+                    pending.append(index)
+            if broken:
+                self._pool.shutdown(wait=True, cancel_futures=True)
+                self._pool = self._make_pool()
+            if not pending:
+                break
+            pending.sort()
+        for index in pending:
+            results[index] = Outcome(None, errors[index], MAX_ATTEMPTS)
+        return [results[i] for i in range(len(items))]
+
+    def close(self) -> None:
+        self._pool.shutdown(wait=True, cancel_futures=True)
+
+
+class ProcessBackend(_ExecutorBackend):
+    """Local worker processes (started with 'spawn': safe with torch and MuJoCo loaded)."""
+
+    name = "process"
+
+    def _make_pool(self) -> futures.Executor:
+        return futures.ProcessPoolExecutor(
+            max_workers=self.workers, mp_context=multiprocessing.get_context("spawn")
+        )
+
+
+class ThreadBackend(_ExecutorBackend):
+    """Local threads (MuJoCo releases the GIL inside `mj_step`)."""
+
+    name = "thread"
+
+    def _make_pool(self) -> futures.Executor:
+        return futures.ThreadPoolExecutor(max_workers=self.workers)
+
+
+class RayBackend(Backend):
+    """Ray tasks: a local Ray instance, or a cluster at `address` (``ray://host:port`` or
+    ``auto``). Needs ``pip install 'mjregen[ray]'``."""
+
+    name = "ray"
+
+    def __init__(self, workers: int | None = None, *, address: str | None = None) -> None:
+        try:
+            import ray
+        except ImportError:
+            raise ImportError(
+                "the Ray backend needs Ray: pip install 'mjregen[ray]' (or pip install ray)"
+            ) from None
+        self._ray = ray
+        self._started_here = not ray.is_initialized()
+        if self._started_here:
+            kwargs: dict[str, Any] = {"address": address, "include_dashboard": False,
+                                      "log_to_driver": False}
+            if address is None:
+                kwargs["num_cpus"] = workers or os.cpu_count() or 1
+            ray.init(**kwargs)
+        super().__init__(int(ray.cluster_resources().get("CPU", 1)) if workers is None else workers)
+        self._remote: dict[Callable, Any] = {}
+
+    def map(self, fn: Callable[[T], R], items: Sequence[T]) -> list[Outcome[R]]:
+        ray = self._ray
+        remote = self._remote.setdefault(fn, ray.remote(num_cpus=1, max_retries=0)(fn))
+        results: dict[int, Outcome[R]] = {}
+        errors: dict[int, str] = {}
+        pending = list(range(len(items)))
+        for attempt in range(1, MAX_ATTEMPTS + 1):
+            refs = {i: remote.remote(items[i]) for i in pending}
+            pending = []
+            for index, ref in refs.items():
+                try:
+                    results[index] = Outcome(ray.get(ref), None, attempt)
+                except Exception as exc:  # noqa: BLE001 - task errors and dead workers alike
+                    cause = getattr(exc, "cause", None)
+                    errors[index] = _describe(cause if isinstance(cause, BaseException) else exc)
+                    pending.append(index)
+            if not pending:
+                break
+        for index in pending:
+            results[index] = Outcome(None, errors[index], MAX_ATTEMPTS)
+        return [results[i] for i in range(len(items))]
+
+    def close(self) -> None:
+        if self._started_here and self._ray.is_initialized():
+            self._ray.shutdown()
+
+
+BACKENDS = ("serial", "process", "thread", "ray")
+
+
+def make_backend(name: str, *, workers: int | None = None, address: str | None = None) -> Backend:
+    """Backend by name; `workers` defaults to all cores (serial: 1)."""
+    if address is not None and name != "ray":
+        raise ValueError("--address is for the Ray backend only")
+    cores = os.cpu_count() or 1
+    if name == "serial":
+        return SerialBackend()
+    if name == "process":
+        return ProcessBackend(workers or cores)
+    if name == "thread":
+        return ThreadBackend(workers or cores)
+    if name == "ray":
+        return RayBackend(workers, address=address)
+    raise ValueError(f"unknown backend {name!r}; choose one of {', '.join(BACKENDS)}")
