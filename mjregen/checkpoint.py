@@ -7,13 +7,13 @@ from __future__ import annotations
 
 import json
 import os
-import tempfile
 import zipfile
 from pathlib import Path
 
 import numpy as np
 
 from mjregen.errors import CheckpointError, InvalidGenomeError
+from mjregen.fileio import atomic_open
 from mjregen.nca import NCA, NCAConfig
 
 FORMAT = "mjregen-nca-1"
@@ -31,22 +31,18 @@ def save_nca(
     path = Path(path)
     if path.suffix != ".npz":
         raise CheckpointError(f"NCA checkpoints are .npz files; got {str(path)!r}")
-    if path.exists() and not overwrite:
-        raise FileExistsError(f"{path} exists; pass overwrite=True to replace it")
     try:
         metadata_json = json.dumps(metadata or {})
     except TypeError as error:
         raise CheckpointError(f"checkpoint metadata must be JSON-serialisable: {error}") from None
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with tempfile.NamedTemporaryFile(dir=path.parent, suffix=".npz", delete=False) as tmp:
+    with atomic_open(path, overwrite=overwrite) as handle:
         np.savez(
-            tmp,
+            handle,
             format=np.array(FORMAT),
             config=np.array(json.dumps(nca.config.to_dict())),
             metadata=np.array(metadata_json),
             genome=nca.genome,
         )
-    os.replace(tmp.name, path)
     return path
 
 

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import os
 import re
-import tempfile
 from enum import IntEnum
 from pathlib import Path
 from typing import Iterator
@@ -18,6 +17,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from mjregen.errors import GridFileError, InvalidGridError
+from mjregen.fileio import atomic_open
 
 
 class Material(IntEnum):
@@ -241,12 +241,8 @@ class Robot:
         path = Path(path)
         if path.suffix != ".npy":
             raise GridFileError(f"robot files are .npy files; got {str(path)!r}")
-        if path.exists() and not overwrite:
-            raise FileExistsError(f"{path} exists; pass overwrite=True to replace it")
-        path.parent.mkdir(parents=True, exist_ok=True)
-        with tempfile.NamedTemporaryFile(dir=path.parent, suffix=".npy", delete=False) as tmp:
-            np.save(tmp, np.asarray(self._grid), allow_pickle=False)
-        os.replace(tmp.name, path)
+        with atomic_open(path, overwrite=overwrite) as handle:
+            np.save(handle, np.asarray(self._grid), allow_pickle=False)
         return path
 
     @classmethod
