@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import mujoco
 import numpy as np
+from numpy.typing import ArrayLike
 
 from mjregen.compile import CompiledRobot, MuscleTendons, compile_robot
 from mjregen.grid import Robot
@@ -162,7 +163,7 @@ def simulation_of(compiled: CompiledRobot) -> Simulation:
 
 
 def simulate(
-    robot: Robot,
+    robot: Robot | ArrayLike,
     *,
     physics: Physics | None = None,
     duration: float | None = None,
@@ -171,7 +172,8 @@ def simulate(
     """Evaluate a robot's locomotion: settle, actuate, measure.
 
     Args:
-      robot: any valid `Robot`, 2D or 3D (an empty one scores without simulating).
+      robot: a `Robot` or a grid that validates as one (2D or 3D); an empty one scores
+        without simulating.
       physics: materials and scene; None = the paper's.
       duration: s of actuation that the distance counts; None = the scene's measured time.
       record: also return the centre-of-mass trajectory (every step).
@@ -179,9 +181,11 @@ def simulate(
       A `Result`; an unstable run is marked ``stable=False`` with the penalty fitness and
       never raises.
     Raises:
+      InvalidGridError: `robot` is not a valid grid.
       PhysicsParameterError: `duration` negative or not finite.
     """
     wall0, cpu0 = time.perf_counter(), time.process_time()
+    robot = robot if isinstance(robot, Robot) else Robot(robot)
     physics = Physics() if physics is None else physics
     if duration is not None and not (math.isfinite(duration) and duration >= 0):
         raise PhysicsParameterError(f"duration must be a finite time >= 0 s, got {duration!r}")

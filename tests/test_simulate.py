@@ -1,0 +1,101 @@
+"""Locomotion evaluation: walking, symmetry, determinism, fitness, stability guard."""
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mjregen.errors import InvalidGridError
+from mjregen.grid import Robot
+from mjregen.physics import Physics, PhysicsParameterError
+from mjregen.simulate import simulate
+
+ROBOTS = Path(__file__).resolve().parents[1] / "assets" / "robots"
+
+
+@pytest.fixture(scope="module")
+def walker_3d():
+    return simulate(Robot.load(ROBOTS / "bimorph_walker_3d.npy"), record=True)
+
+
+def test_two_phase_walker_moves(walker_3d):
+    """The bimorph walker moves (1.5 voxel lengths in 20 cycles) mostly along its length."""
+    result = walker_3d
+    assert result.stable and result.reason == ""
+    assert result.distance > 1.0
+    start = np.searchsorted(result.times, 0.05)
+    displacement = result.com[-1] - result.com[start]
+    assert abs(displacement[0]) > 10 * abs(displacement[1])
+    assert result.fitness == pytest.approx(result.distance - 0.0583 * 10, abs=1e-12)
+
+
+def test_two_phase_walker_moves_in_2d():
+    result = simulate(Robot.load(ROBOTS / "bimorph_walker_2d.npy"))
+    assert result.stable and result.distance > 0.4  # 0.75 in the paper's 10 cycles
+    assert result.fitness == result.distance
+
+
+def test_mirror_symmetric_in_phase_robot_does_not_move():
+    """By mirror symmetry its net displacement is zero; allow 1e-3 voxel lengths."""
+    result = simulate(Robot.load(ROBOTS / "symmetric_inphase_3d.npy"))
+    assert result.stable and result.distance < 1e-3
+
+
+def test_record_covers_settle_and_measurement(walker_3d):
+    result = walker_3d
+    assert result.times.shape == (result.steps + 1,) and result.com.shape == (result.steps + 1, 3)
+    assert result.sim_time == pytest.approx(0.55, abs=result.timestep)
+    assert result.times[-1] == pytest.approx(result.sim_time)
+    assert np.allclose(result.com[0, :2], 0.0, atol=1e-12)  # starts centred
+    start = np.searchsorted(result.times, 0.05 - result.timestep / 2)
+    distance = np.linalg.norm(result.com[-1, :2] - result.com[start, :2]) / 1e-3
+    assert distance == pytest.approx(result.distance, rel=1e-9)
+    assert result.wall_time > 0 and result.cpu_time > 0
+
+
+def test_same_robot_gives_bit_identical_results():
+    robot = Robot.from_body(np.array([[3, 1], [4, 2], [3, 4]], dtype=np.int8))
+    physics = Physics().replace_scene(settle_time=0.02, measured_time=0.05)
+    a = simulate(robot, physics=physics, record=True)
+    b = simulate(robot, physics=physics, record=True)
+    assert a.distance == b.distance and a.steps == b.steps
+    assert np.array_equal(a.com, b.com)
+
+
+def test_duration_sets_the_measured_time():
+    robot = Robot.from_body(np.ones((2, 1, 1), dtype=np.int8))
+    result = simulate(robot, duration=0.01)
+    assert result.steps == round(0.05 / result.timestep) + round(0.01 / result.timestep)
+    with pytest.raises(PhysicsParameterError, match="duration"):
+        simulate(robot, duration=-1.0)
+    with pytest.raises(PhysicsParameterError, match="duration"):
+        simulate(robot, duration=math.nan)
+
+
+@pytest.mark.parametrize("shape, fitness", [((5, 5, 5), -20.0), ((5, 5), 0.0)])
+def test_empty_robot_scores_without_simulating(shape, fitness):
+    result = simulate(Robot(np.zeros(shape, dtype=np.int8)))
+    assert result.fitness == fitness and result.steps == 0 and result.n_voxels == 0
+
+
+def test_unstable_run_is_flagged_with_penalty_not_raised():
+    """20× the stable time step makes explicit integration diverge: a defined result."""
+    robot = Robot.from_body(np.ones((2, 2, 2), dtype=np.int8))
+    physics = Physics().replace_scene(timestep_safety=20.0)
+    result = simulate(robot, physics=physics)
+    assert not result.stable and result.reason
+    assert result.fitness == -21.0 and math.isnan(result.distance)
+    assert result.steps < round(0.55 / result.timestep)  # stopped early
+    result_2d = simulate(Robot.from_body(np.ones((2, 2), dtype=np.int8)), physics=physics)
+    assert not result_2d.stable and result_2d.fitness == -1.0
+
+
+def test_invalid_grid_is_rejected_before_simulation():
+    with pytest.raises(InvalidGridError, match="border"):
+        simulate(np.ones((3, 3, 3), dtype=np.int8))
+    with pytest.raises(InvalidGridError, match="unknown material"):
+        simulate(np.full((3, 3), 7))
+    grid = np.zeros((3, 3, 3), dtype=np.int8)
+    grid[1, 1, 1] = 1
+    assert simulate(grid, duration=0.001).stable  # plain arrays are validated and accepted
