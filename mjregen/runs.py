@@ -1,0 +1,236 @@
+"""Evolution runs on disk: one output folder per run, resumable after a kill.
+
+The folder holds
+  config.json     everything that determines the run (task, GA settings, seed)
+  metrics.csv     one row per generation (see `METRICS`)
+  best/gen_NNNN.npz, best/gen_NNNN.npy   each generation's best genome (NCA checkpoint)
+                  and its robot
+  fitness.png     best and mean fitness per generation, redrawn every generation
+  checkpoint.npz  the GA state after the last finished generation, written atomically
+A killed run continues from `checkpoint.npz` with ``resume=True`` and produces exactly the
+results of an uninterrupted run: evaluation is deterministic and the GA's random state is
+restored. A folder holding a run is never overwritten without ``resume`` or ``force``.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import shutil
+import time
+import zipfile
+from dataclasses import dataclass
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Callable, Protocol
+
+import numpy as np
+from tqdm import tqdm
+
+from mjregen import __version__
+from mjregen.checkpoint import save_nca
+from mjregen.errors import CheckpointError, MjregenError
+from mjregen.evolve import GAConfig, GeneticAlgorithm
+from mjregen.fileio import atomic_open
+from mjregen.grid import Robot
+from mjregen.locomotion import PopulationEvaluation
+from mjregen.nca import NCA, NCAConfig
+from mjregen.parallel import Backend
+
+RUN_FORMAT = "mjregen-run-1"
+METRICS = ("generation", "best", "mean", "median", "std", "unstable", "failed", "distinct",
+           "evaluations", "evals_per_s", "wall_time", "elapsed")
+
+
+class Task(Protocol):
+    """What an evolution evaluates: genomes of an NCA -> fitness (higher is better)."""
+
+    nca: NCAConfig
+
+    def evaluate(self, genomes: np.ndarray, backend: Backend) -> PopulationEvaluation: ...
+
+
+class RunFolderError(MjregenError, ValueError):
+    """The output folder holds another run, or cannot be resumed."""
+
+
+@dataclass(frozen=True)
+class RunSummary:
+    """Outcome of `run_evolution`: the best individual ever evaluated and where it is."""
+
+    out: Path
+    generations: int
+    best_fitness: float
+    best_generation: int
+    best_genome: np.ndarray
+
+
+def _checkpoint_save(path: Path, ga: GeneticAlgorithm, best: dict) -> None:
+    state = ga.state_dict()
+    population = state.pop("population")
+    state.update(best_fitness=best["best_fitness"], best_generation=best["best_generation"])
+    with atomic_open(path) as handle:
+        np.savez(handle, format=np.array(RUN_FORMAT), population=population,
+                 best_genome=best["best_genome"], state=np.array(json.dumps(state)))
+
+
+def _checkpoint_load(path: Path) -> tuple[GeneticAlgorithm, dict]:
+    try:
+        with np.load(path, allow_pickle=False) as archive:
+            if str(archive["format"]) != RUN_FORMAT:
+                raise CheckpointError(f"{path} is not an mjregen run checkpoint")
+            state = json.loads(str(archive["state"]))
+            population, best_genome = archive["population"], archive["best_genome"]
+    except (KeyError, ValueError, OSError, EOFError, zipfile.BadZipFile) as error:
+        raise CheckpointError(f"cannot read run checkpoint {path}: {error}") from None
+    best = {"best_fitness": state.pop("best_fitness"), "best_generation": state.pop("best_generation"),
+            "best_genome": best_genome}
+    return GeneticAlgorithm.from_state_dict({**state, "population": population}), best
+
+
+def _prepare_folder(out: Path, config: dict, *, resume: bool, force: bool) -> bool:
+    """Create or check the run folder; returns True when an earlier run is resumed."""
+    config_path = out / "config.json"
+    if resume and force:
+        raise RunFolderError("choose either resume or force, not both")
+    if resume:
+        if not config_path.is_file():
+            raise RunFolderError(f"nothing to resume: {config_path} does not exist")
+        stored = json.loads(config_path.read_text())
+        differences = sorted(k for k in set(stored) | set(config)
+                             if k not in ("created", "mjregen_version") and stored.get(k) != config.get(k))
+        if differences:
+            raise RunFolderError(
+                f"{out} holds a run with different settings ({', '.join(differences)}); "
+                "resume it with its own settings or use another folder")
+        return (out / "checkpoint.npz").is_file()
+    if out.exists() and any(out.iterdir()):
+        if not force:
+            raise RunFolderError(f"{out} is not empty; pass resume to continue the run in it "
+                                 "or force to delete it and start again")
+        shutil.rmtree(out)
+    out.mkdir(parents=True, exist_ok=True)
+    with atomic_open(config_path, "w") as handle:
+        json.dump(config, handle, indent=2)
+    return False
+
+
+def _read_metrics(path: Path, generations: int) -> list[dict]:
+    """Rows of generations < `generations` (a killed run may have written one more)."""
+    if not path.is_file():
+        return []
+    with path.open() as handle:
+        return [row for row in csv.DictReader(handle) if int(row["generation"]) < generations]
+
+
+def _write_metrics(path: Path, rows: list[dict]) -> None:
+    with atomic_open(path, "w") as handle:
+        writer = csv.DictWriter(handle, fieldnames=METRICS)
+        writer.writeheader()
+        writer.writerows(rows)
+
+
+def plot_fitness(rows: list[dict], path: Path, title: str) -> None:
+    """Best and mean fitness per generation as a PNG."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    generations = [int(r["generation"]) for r in rows]
+    fig, ax = plt.subplots(figsize=(6, 4), dpi=100)
+    ax.plot(generations, [float(r["best"]) for r in rows], label="best")
+    ax.plot(generations, [float(r["mean"]) for r in rows], label="mean")
+    ax.set_xlabel("generation")
+    ax.set_ylabel("fitness")
+    ax.set_title(title)
+    ax.grid(alpha=0.3)
+    ax.legend()
+    fig.tight_layout()
+    with atomic_open(path) as handle:
+        fig.savefig(handle, format="png")
+    plt.close(fig)
+
+
+def run_evolution(
+    task: Task,
+    ga_config: GAConfig,
+    *,
+    seed: int,
+    out: str | Path,
+    backend: Backend,
+    task_config: dict,
+    resume: bool = False,
+    force: bool = False,
+    progress: bool = True,
+    on_generation: Callable[[dict], None] | None = None,
+) -> RunSummary:
+    """Evolve `task` with the GA, writing the run folder `out` (see the module docstring).
+
+    Args:
+      task: what to evaluate (e.g. `mjregen.locomotion.LocomotionTask`).
+      ga_config: population, generations, truncation, elites, sigma.
+      seed: seeds the GA (the only random thing in a run).
+      out: the run folder.
+      backend: where simulations run; results do not depend on it.
+      task_config: JSON description of `task`, stored in config.json and compared on resume.
+      resume: continue the run in `out` (its settings must equal these).
+      force: delete whatever is in `out` first.
+      progress: show a tqdm bar with the current best.
+      on_generation: called with each generation's metrics row.
+    Raises:
+      RunFolderError: `out` holds another run, or there is nothing to resume.
+    """
+    out = Path(out)
+    config = {
+        "format": RUN_FORMAT, "task": task_config, "ga": ga_config.to_dict(), "seed": seed,
+        "mjregen_version": __version__, "created": datetime.now(timezone.utc).isoformat(),
+    }
+    resuming = _prepare_folder(out, config, resume=resume, force=force)
+    if resuming:
+        ga, best = _checkpoint_load(out / "checkpoint.npz")
+    else:
+        ga = GeneticAlgorithm(ga_config, task.nca.genome_size, seed=seed)
+        best = {"best_fitness": -np.inf, "best_generation": -1, "best_genome": None}
+    rows = _read_metrics(out / "metrics.csv", ga.generation)
+    elapsed = float(rows[-1]["elapsed"]) if rows else 0.0
+    (out / "best").mkdir(exist_ok=True)
+    bar = tqdm(total=ga_config.generations, initial=ga.generation, disable=not progress,
+               desc=f"evolving {out.name}", unit="gen")
+    while ga.generation < ga_config.generations:
+        start = time.perf_counter()
+        generation = ga.generation
+        population = ga.ask()
+        result = task.evaluate(population, backend)
+        ranking = ga.tell(result.fitness)
+        top = int(ranking[0])
+        if result.fitness[top] > best["best_fitness"]:
+            best = {"best_fitness": float(result.fitness[top]), "best_generation": generation,
+                    "best_genome": population[top]}
+        stem = out / "best" / f"gen_{generation:04d}"
+        metadata = {"generation": generation, "fitness": float(result.fitness[top]), "seed": seed,
+                    "distance": float(result.distance[top]), "voxels": int(result.n_voxels[top])}
+        save_nca(stem.with_suffix(".npz"), NCA(task.nca, population[top]), metadata=metadata, overwrite=True)
+        Robot(result.grids[top]).save(stem.with_suffix(".npy"), overwrite=True)
+        wall = time.perf_counter() - start
+        elapsed += wall
+        fitness = result.fitness
+        rows.append({
+            "generation": generation, "best": f"{fitness.max():.6g}", "mean": f"{fitness.mean():.6g}",
+            "median": f"{np.median(fitness):.6g}", "std": f"{fitness.std():.6g}",
+            "unstable": int(np.count_nonzero(~result.stable & ~result.failed)),
+            "failed": int(np.count_nonzero(result.failed)), "distinct": result.n_distinct,
+            "evaluations": len(fitness), "evals_per_s": f"{len(fitness) / wall:.4g}",
+            "wall_time": f"{wall:.4g}", "elapsed": f"{elapsed:.6g}",
+        })
+        _write_metrics(out / "metrics.csv", rows)
+        plot_fitness(rows, out / "fitness.png", title=out.name)
+        _checkpoint_save(out / "checkpoint.npz", ga, best)
+        bar.set_postfix(best=f"{fitness.max():.3f}", overall=f"{best['best_fitness']:.3f}")
+        bar.update(1)
+        if on_generation is not None:
+            on_generation(rows[-1])
+    bar.close()
+    return RunSummary(out=out, generations=ga.generation, best_fitness=best["best_fitness"],
+                      best_generation=best["best_generation"],
+                      best_genome=np.asarray(best["best_genome"], dtype=np.float32))
