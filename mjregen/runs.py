@@ -38,6 +38,7 @@ from mjregen.nca import NCA, NCAConfig
 from mjregen.parallel import Backend
 
 RUN_FORMAT = "mjregen-run-1"
+PLOT_EVERY = 10.0  # s of wall time between redraws of fitness.png (and after the last generation)
 METRICS = ("generation", "best", "mean", "median", "std", "unstable", "failed", "distinct",
            "evaluations", "evals_per_s", "wall_time", "elapsed")
 
@@ -195,6 +196,7 @@ def run_evolution(
     rows = _read_metrics(out / "metrics.csv", ga.generation)
     elapsed = float(rows[-1]["elapsed"]) if rows else 0.0
     (out / "best").mkdir(exist_ok=True)
+    last_plot = -np.inf
     bar = tqdm(total=ga_config.generations, initial=ga.generation, disable=not progress,
                desc=f"evolving {out.name}", unit="gen")
     while ga.generation < ga_config.generations:
@@ -224,7 +226,9 @@ def run_evolution(
             "wall_time": f"{wall:.4g}", "elapsed": f"{elapsed:.6g}",
         })
         _write_metrics(out / "metrics.csv", rows)
-        plot_fitness(rows, out / "fitness.png", title=out.name)
+        if time.perf_counter() - last_plot > PLOT_EVERY or ga.generation == ga_config.generations:
+            plot_fitness(rows, out / "fitness.png", title=out.name)
+            last_plot = time.perf_counter()
         _checkpoint_save(out / "checkpoint.npz", ga, best)
         bar.set_postfix(best=f"{fitness.max():.3f}", overall=f"{best['best_fitness']:.3f}")
         bar.update(1)
