@@ -1,0 +1,82 @@
+"""Statistics over several evolution runs: mean best fitness with bootstrapped 95 % CIs
+(the paper's Fig. 3b/4b style), read from the runs' metrics.csv files."""
+
+from __future__ import annotations
+
+import csv
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from mjregen.errors import MjregenError
+from mjregen.fileio import atomic_open
+
+
+@dataclass(frozen=True)
+class CurveStats:
+    """Per generation over runs: ``generations (G,)``, ``mean, low, high (G,)``, n runs."""
+
+    generations: np.ndarray
+    mean: np.ndarray
+    low: np.ndarray
+    high: np.ndarray
+    n_runs: int
+
+
+def read_curve(run: str | Path, column: str = "best") -> np.ndarray:
+    """One column of a run's metrics.csv as float ``(generations,)``."""
+    path = Path(run) / "metrics.csv"
+    if not path.is_file():
+        raise FileNotFoundError(f"no metrics.csv in {run}")
+    with path.open() as handle:
+        rows = list(csv.DictReader(handle))
+    if not rows or column not in rows[0]:
+        raise MjregenError(f"{path} has no rows or no column {column!r}")
+    return np.array([float(r[column]) for r in rows])
+
+
+def bootstrap_curves(curves: np.ndarray, *, resamples: int = 10_000, confidence: float = 0.95,
+                     seed: int = 0) -> CurveStats:
+    """Mean over runs and its percentile-bootstrap CI, per generation.
+
+    Args:
+      curves: ``(runs, generations)``.
+    """
+    curves = np.asarray(curves, dtype=np.float64)
+    if curves.ndim != 2 or curves.shape[0] < 1:
+        raise ValueError(f"curves must be (runs, generations), got shape {curves.shape}")
+    rng = np.random.default_rng(seed)
+    picks = rng.integers(0, curves.shape[0], size=(resamples, curves.shape[0]))
+    means = curves[picks].mean(axis=1)  # (resamples, generations)
+    tail = (1.0 - confidence) / 2.0 * 100.0
+    low, high = np.percentile(means, [tail, 100.0 - tail], axis=0)
+    return CurveStats(np.arange(curves.shape[1]), curves.mean(axis=0), low, high, curves.shape[0])
+
+
+def group_stats(runs: list[str | Path], column: str = "best", **kwargs: object) -> CurveStats:
+    """`bootstrap_curves` of several runs, cut to the shortest run's length."""
+    curves = [read_curve(run, column) for run in runs]
+    length = min(len(c) for c in curves)
+    return bootstrap_curves(np.stack([c[:length] for c in curves]), **kwargs)
+
+
+def plot_groups(groups: dict[str, CurveStats], path: str | Path, *, ylabel: str = "best fitness") -> None:
+    """Mean curves with shaded CIs, one per group, as a PNG."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6, 4), dpi=100)
+    for label, stats in groups.items():
+        line, = ax.plot(stats.generations, stats.mean, label=f"{label} (n={stats.n_runs})")
+        ax.fill_between(stats.generations, stats.low, stats.high, color=line.get_color(), alpha=0.25)
+    ax.set_xlabel("generation")
+    ax.set_ylabel(ylabel)
+    ax.grid(alpha=0.3)
+    ax.legend()
+    fig.tight_layout()
+    with atomic_open(path) as handle:
+        fig.savefig(handle, format="png")
+    plt.close(fig)

@@ -1,0 +1,35 @@
+"""Bootstrapped confidence intervals over runs."""
+
+import numpy as np
+import pytest
+
+from mjregen.stats import bootstrap_curves, group_stats, plot_groups
+
+
+def test_bootstrap_ci_covers_the_mean_and_shrinks_with_more_runs():
+    rng = np.random.default_rng(0)
+    few = bootstrap_curves(rng.normal(5.0, 1.0, size=(5, 3)))
+    many = bootstrap_curves(rng.normal(5.0, 1.0, size=(200, 3)))
+    assert np.all(few.low <= few.mean) and np.all(few.mean <= few.high)
+    assert np.all((many.high - many.low) < (few.high - few.low))
+    # for 200 samples of N(5, 1) the 95 % CI of the mean is about ±1.96/sqrt(200) = ±0.139
+    assert np.allclose(many.high - many.low, 2 * 1.96 / np.sqrt(200), rtol=0.15)
+    assert np.all((many.low < 5.0) & (5.0 < many.high))
+
+
+def test_identical_runs_give_a_zero_width_interval():
+    stats = bootstrap_curves(np.tile([1.0, 2.0, 3.0], (4, 1)))
+    assert np.array_equal(stats.mean, [1, 2, 3]) and np.array_equal(stats.low, stats.high)
+
+
+def test_group_stats_reads_metrics_and_plots(tmp_path):
+    for i, curve in enumerate(([1, 2, 3, 4], [2, 3, 4])):
+        run = tmp_path / f"run{i}"
+        run.mkdir()
+        (run / "metrics.csv").write_text("generation,best\n" + "".join(f"{g},{b}\n" for g, b in enumerate(curve)))
+    stats = group_stats([tmp_path / "run0", tmp_path / "run1"])
+    assert stats.n_runs == 2 and np.allclose(stats.mean, [1.5, 2.5, 3.5])
+    plot_groups({"a": stats}, tmp_path / "curves.png")
+    assert (tmp_path / "curves.png").read_bytes()[:4] == b"\x89PNG"
+    with pytest.raises(FileNotFoundError, match="metrics.csv"):
+        group_stats([tmp_path / "missing"])
