@@ -3,6 +3,8 @@
 Defaults follow the paper's code (Voxelyze settings, see SEED_CODE_FACTS.md): 1 mm voxels of
 1 g, E = 1e7 Pa (soft and muscle) or 5e7 Pa (hard), Poisson ratio 0.35, gravity 27.468 m/s²
 downwards, 40 Hz actuation with ±14 % linear strain, contract-only, bond damping ratio 1.
+The time-step safety factor (0.75) is ours: the paper engine's rule (factor 1) is unstable
+for MuJoCo tendon bonds with ζ = 1 (see `Scene`).
 
 Everything here is plain, frozen data validated on construction; MuJoCo appears only in
 `mjregen.compile`.
@@ -123,7 +125,10 @@ class Scene:
       bond_damping_ratio: ζ of the bonds, relative to one voxel's mass (the paper's
         convention: c = 2 ζ sqrt(m k)).
       integrator: "euler" (MuJoCo's semi-implicit Euler) or "rk4".
-      timestep_safety: factor on the time-step rule (see `timestep`).
+      timestep_safety: factor on the paper engine's time-step rule (`Physics.timestep`).
+        With ζ = 1 the explicit bond damping sets the limit: blocks with interior voxels
+        (6 bonds; 3D 4³, 5³, 7³ blocks, a 7×4×4 slab) went unstable at 0.95–1.0 and ran
+        at 0.9; the default 0.75 keeps a margin. A lower ζ allows more.
       floor: whether the floor plane (z = 0) exists.
       contact_timeconst: s, MuJoCo solref time constant of voxel–floor contacts.
       contact_dampratio: MuJoCo solref damping ratio of voxel–floor contacts.
@@ -138,7 +143,7 @@ class Scene:
     measured_time: float | None = None
     bond_damping_ratio: float = 1.0
     integrator: str = "euler"
-    timestep_safety: float = 1.0
+    timestep_safety: float = 0.75
     floor: bool = True
     contact_timeconst: float = 3e-4
     contact_dampratio: float = 1.0

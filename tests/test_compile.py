@@ -63,13 +63,15 @@ def test_bonds_start_unstressed():
 
 
 def test_timestep_from_stiffest_bond_present():
-    soft = compile_robot(Robot.from_body(np.ones((2, 1, 1), dtype=np.int8)))
-    hard = compile_robot(Robot.from_body(np.full((2, 1, 1), 2, dtype=np.int8)))
-    lone = compile_robot(Robot.from_body(np.ones((1, 1, 1), dtype=np.int8)))
+    paper_rule = Physics().replace_scene(timestep_safety=1.0)
+    soft, hard, lone = (compile_robot(Robot.from_body(body.astype(np.int8)), physics=paper_rule)
+                        for body in (np.ones((2, 1, 1)), np.full((2, 1, 1), 2), np.ones((1, 1, 1))))
     # the paper engine's steps (cases.md): 4.5296e-5 s soft, 2.0257e-5 s with hard bonds
     assert soft.timestep == pytest.approx(4.5296e-5, rel=1e-4)
     assert hard.timestep == pytest.approx(2.0257e-5, rel=1e-4)
     assert lone.timestep == pytest.approx(soft.timestep, rel=1e-5)
+    default = compile_robot(Robot.from_body(np.ones((2, 1, 1), dtype=np.int8)))
+    assert default.timestep == pytest.approx(0.75 * soft.timestep, rel=1e-5)
 
 
 def test_muscle_tendons_come_first_and_cover_exactly_the_muscle_bonds():

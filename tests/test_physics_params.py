@@ -26,7 +26,7 @@ def test_defaults_are_the_papers():
 
 def test_timestep_rule_matches_the_paper_engine():
     # cases.md: the engine's step is 4.5296e-5 s for soft bodies, 2.0257e-5 s with hard voxels
-    physics = Physics()
+    physics = Physics(scene=Scene(timestep_safety=1.0))
     assert physics.timestep(1e7 * 1e-3 / 1e-3) == pytest.approx(4.5296e-5, rel=1e-4)
     assert physics.timestep(5e7 * 1e-3 / 1e-3) == pytest.approx(2.0257e-5, rel=1e-4)
     half = Physics(scene=Scene(timestep_safety=0.5))
