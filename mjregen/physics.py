@@ -13,7 +13,7 @@ Everything here is plain, frozen data validated on construction; MuJoCo appears 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, fields
+from dataclasses import asdict, dataclass, field, fields
 from types import MappingProxyType
 from typing import Mapping
 
@@ -198,6 +198,27 @@ class Physics:
                 raise PhysicsParameterError(
                     f"materials[{material!r}] must be MaterialProperties, got {type(props)}")
         object.__setattr__(self, "materials", MappingProxyType(dict(self.materials)))
+
+    def __reduce__(self) -> tuple:
+        # The read-only mapping proxy does not pickle; rebuild from a plain dict (workers).
+        return (Physics, (dict(self.materials), self.scene))
+
+    def to_dict(self) -> dict:
+        """JSON-ready description: materials by lower-case name, and the scene."""
+        return {
+            "materials": {m.name.lower(): asdict(p) for m, p in sorted(self.materials.items())},
+            "scene": asdict(self.scene),
+        }
+
+    @classmethod
+    def from_dict(cls, values: dict) -> Physics:
+        """Inverse of `to_dict` (validated like any construction)."""
+        try:
+            materials = {Material[name.upper()]: MaterialProperties(**props)
+                         for name, props in values["materials"].items()}
+            return cls(materials=materials, scene=Scene(**values["scene"]))
+        except (KeyError, TypeError) as error:
+            raise PhysicsParameterError(f"invalid physics description: {error}") from None
 
     def replace_scene(self, **changes: object) -> Physics:
         """A copy with some `Scene` fields changed (validated)."""

@@ -76,3 +76,20 @@ def test_physics_needs_every_material_and_copies_changes():
     assert changed.scene.gravity == 0.0 and Physics().scene.gravity == 27.468
     with pytest.raises(PhysicsParameterError, match="gravity"):
         Physics().replace_scene(gravity=-1.0)
+
+
+def test_physics_pickles_and_round_trips_through_json():
+    import json
+    import pickle
+
+    physics = Physics().replace_scene(settle_time=0.2, integrator="rk4")
+    assert pickle.loads(pickle.dumps(physics)) == physics  # sent to worker processes
+    assert Physics.from_dict(json.loads(json.dumps(physics.to_dict()))) == physics
+    broken = physics.to_dict()
+    broken["materials"]["hard"]["youngs_modulus"] = -1.0
+    with pytest.raises(PhysicsParameterError, match="youngs_modulus"):
+        Physics.from_dict(broken)
+    broken = physics.to_dict()
+    del broken["scene"]
+    with pytest.raises(PhysicsParameterError, match="invalid physics"):
+        Physics.from_dict(broken)
