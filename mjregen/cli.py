@@ -108,6 +108,147 @@ def _show(args: argparse.Namespace) -> int:
     return 0
 
 
+def _add_evolve(subparsers: argparse._SubParsersAction) -> None:
+    from mjregen.evolve import PRESETS
+    from mjregen.parallel import BACKENDS
+
+    parser = subparsers.add_parser(
+        "evolve",
+        help="evolve NCAs for locomotion with the paper's genetic algorithm",
+        description="Evolve NCAs whose grown robots walk far. Writes config.json, metrics.csv, "
+        "each generation's best NCA and robot, fitness.png and a checkpoint into --out; "
+        "--resume continues a killed run exactly. Settings default to the paper's preset for "
+        "--dim (2d or 3d); every number can be overridden.",
+    )
+    parser.add_argument("--task", choices=("locomotion",), default="locomotion")
+    parser.add_argument("--dim", type=int, choices=(2, 3), help="2D or 3D robots (default 3)")
+    parser.add_argument("--net", choices=("ff", "lstm"), help="NCA network (default ff)")
+    parser.add_argument("--preset", choices=sorted(PRESETS), help="GA preset (default: 2d or 3d by --dim)")
+    parser.add_argument("--pop", type=int, help="population size")
+    parser.add_argument("--gens", type=int, help="generations")
+    parser.add_argument("--truncation", type=int, help="parents are drawn from the top T")
+    parser.add_argument("--elites", type=int, help="individuals kept unchanged")
+    parser.add_argument("--sigma", type=float, help="mutation standard deviation")
+    parser.add_argument("--settle", type=float,
+                        help="s without actuation before measuring (default: the paper's, 3D 0.05, 2D 1.0)")
+    parser.add_argument("--duration", type=float,
+                        help="s of walking measured (default: the paper's, 3D 0.5, 2D 0.25)")
+    parser.add_argument("--seed", type=int, help="seed of the GA (default 0)")
+    parser.add_argument("--backend", choices=BACKENDS, default="process",
+                        help="where simulations run (default: local processes)")
+    parser.add_argument("--workers", type=int, help="parallel workers (default: all cores)")
+    parser.add_argument("--address", help="Ray cluster address (with --backend ray)")
+    parser.add_argument("--out", type=Path, required=True, help="run folder")
+    folder = parser.add_mutually_exclusive_group()
+    folder.add_argument("--resume", action="store_true",
+                        help="continue the run in --out with its stored settings")
+    folder.add_argument("--force", action="store_true", help="delete --out first")
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    parser.add_argument("--json", action="store_true", help="print a JSON summary at the end")
+    parser.set_defaults(handler=_evolve)
+
+
+def _evolve(args: argparse.Namespace) -> int:
+    from mjregen.evolve import PRESETS
+    from mjregen.locomotion import LocomotionTask
+    from mjregen.nca import NCAConfig
+    from mjregen.parallel import make_backend
+    from mjregen.physics import Physics
+    from mjregen.runs import run_evolution
+
+    if args.resume:
+        task, ga, seed = _stored_run(args)
+    else:
+        dim = args.dim or 3
+        preset = PRESETS[args.preset or f"{dim}d"]
+        try:
+            ga = preset.with_overrides(population=args.pop, generations=args.gens,
+                                       truncation=args.truncation, elites=args.elites, sigma=args.sigma)
+        except ValueError as error:
+            raise MjregenError(str(error)) from None
+        physics = Physics() if args.settle is None else Physics().replace_scene(settle_time=args.settle)
+        task = LocomotionTask(nca=NCAConfig(dim=dim, kind=args.net or "ff"), physics=physics,
+                              duration=args.duration)
+        seed = 0 if args.seed is None else args.seed
+    task_config = {"task": "locomotion", "nca": task.nca.to_dict(), "physics": task.physics.to_dict(),
+                   "duration": task.duration}
+    with make_backend(args.backend, workers=args.workers, address=args.address) as backend:
+        summary = run_evolution(task, ga, seed=seed, out=args.out, backend=backend,
+                                task_config=task_config, resume=args.resume, force=args.force,
+                                progress=not args.quiet)
+    report = {"out": str(summary.out), "generations": summary.generations,
+              "best_fitness": summary.best_fitness, "best_generation": summary.best_generation}
+    if args.json:
+        print(json.dumps(report))
+    else:
+        print(f"best fitness {summary.best_fitness:.4f} in generation {summary.best_generation}; "
+              f"run folder {summary.out}")
+    return 0
+
+
+def _stored_run(args: argparse.Namespace) -> tuple:
+    """Task, GA settings and seed of the run in ``args.out``; flags given must agree."""
+    from mjregen.evolve import GAConfig
+    from mjregen.locomotion import LocomotionTask
+    from mjregen.nca import NCAConfig
+    from mjregen.physics import Physics
+
+    path = args.out / "config.json"
+    if not path.is_file():
+        raise MjregenError(f"nothing to resume: {path} does not exist")
+    stored = json.loads(path.read_text())
+    task = LocomotionTask(nca=NCAConfig.from_dict(stored["task"]["nca"]),
+                          physics=Physics.from_dict(stored["task"]["physics"]),
+                          duration=stored["task"]["duration"])
+    ga = GAConfig(**stored["ga"])
+    given = {"dim": (args.dim, task.nca.dim), "net": (args.net, task.nca.kind),
+             "pop": (args.pop, ga.population), "gens": (args.gens, ga.generations),
+             "truncation": (args.truncation, ga.truncation), "elites": (args.elites, ga.elites),
+             "sigma": (args.sigma, ga.sigma), "seed": (args.seed, stored["seed"]),
+             "duration": (args.duration, task.duration),
+             "settle": (args.settle, task.physics.scene.settle_time)}
+    conflicts = [f"--{k} {v} (run has {s})" for k, (v, s) in given.items() if v is not None and v != s]
+    if conflicts:
+        raise MjregenError(f"{args.out} was started with other settings: {', '.join(conflicts)}")
+    return task, ga, stored["seed"]
+
+
+def _add_evolve_stats(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser(
+        "evolve-stats",
+        help="mean best fitness with bootstrapped 95%% CIs over several runs",
+        description="Plot the mean (over runs) of a metrics.csv column per generation, with a "
+        "bootstrapped 95%% confidence band, one curve per group. Example: "
+        "mjregen evolve-stats --group ff runs/ff_* --group lstm runs/lstm_* --out curves.png",
+    )
+    parser.add_argument("--group", nargs="+", action="append", required=True,
+                        metavar=("LABEL", "RUN"), help="a label and its run folders")
+    parser.add_argument("--column", default="best", help="metrics.csv column (default best)")
+    parser.add_argument("--out", type=Path, required=True, help="PNG to write")
+    parser.add_argument("--json", action="store_true", help="print the curves as JSON")
+    parser.set_defaults(handler=_evolve_stats)
+
+
+def _evolve_stats(args: argparse.Namespace) -> int:
+    from mjregen.stats import group_stats, plot_groups
+
+    groups = {}
+    for label, *runs in args.group:
+        if not runs:
+            raise MjregenError(f"group {label!r} names no run folders")
+        groups[label] = group_stats(runs, args.column)
+    plot_groups(groups, args.out, ylabel=args.column)
+    if args.json:
+        print(json.dumps({label: {"runs": s.n_runs, "mean": s.mean.tolist(), "low": s.low.tolist(),
+                                  "high": s.high.tolist()} for label, s in groups.items()}))
+    else:
+        for label, s in groups.items():
+            print(f"{label}: {s.n_runs} runs, final mean {s.mean[-1]:.4f} "
+                  f"[{s.low[-1]:.4f}, {s.high[-1]:.4f}]")
+        print(f"wrote {args.out}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="mjregen",
@@ -116,7 +257,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"mjregen {__version__}")
     subparsers = parser.add_subparsers(title="commands", metavar="COMMAND", required=True)
-    for add in (_add_grow, _add_show):
+    for add in (_add_grow, _add_show, _add_evolve, _add_evolve_stats):
         add(subparsers)
     return parser
 
