@@ -1,0 +1,86 @@
+"""The locomotion fitness pipeline: distinct robots simulated once, backends agree,
+diverging and raising evaluations are contained."""
+
+import numpy as np
+import pytest
+
+import mjregen.locomotion as locomotion
+from mjregen.nca import NCAConfig, grow, random_genomes
+from mjregen.parallel import ProcessBackend, SerialBackend, ThreadBackend, make_backend
+from mjregen.physics import Physics
+from mjregen.simulate import EMPTY_FITNESS, UNSTABLE_FITNESS, VOXEL_COST, simulate
+
+NCA = NCAConfig(dim=2, kind="ff")
+QUICK = Physics().replace_scene(settle_time=0.01)
+TASK = locomotion.LocomotionTask(nca=NCA, physics=QUICK, duration=0.02)
+
+
+class CountingBackend(SerialBackend):
+    def __init__(self):
+        super().__init__()
+        self.items = 0
+
+    def map(self, fn, items):
+        self.items += len(items)
+        return super().map(fn, items)
+
+
+def population():
+    genomes = random_genomes(NCA, 6, seed=4, std=0.5)
+    return np.concatenate([genomes, genomes[:3]])  # 3 duplicates
+
+
+def test_each_distinct_robot_is_simulated_once_and_scored_like_simulate():
+    genomes = population()
+    backend = CountingBackend()
+    result = TASK.evaluate(genomes, backend)
+    grids = grow(NCA, genomes).grids
+    distinct_nonempty = {g.tobytes() for g in grids if g.any()}
+    assert backend.items == len(distinct_nonempty) and result.n_distinct == len({g.tobytes() for g in grids})
+    assert np.array_equal(result.fitness[:3], result.fitness[6:])
+    for i, grid in enumerate(grids):
+        expected = simulate(grid, physics=QUICK, duration=0.02).fitness if grid.any() else EMPTY_FITNESS[2]
+        assert result.fitness[i] == expected
+
+
+def test_3d_fitness_subtracts_the_voxel_cost():
+    nca3 = NCAConfig(dim=3, kind="ff")
+    task = locomotion.LocomotionTask(nca=nca3, physics=Physics().replace_scene(settle_time=0.005), duration=0.005)
+    genomes = random_genomes(nca3, 3, seed=1)
+    result = task.evaluate(genomes, SerialBackend())
+    for i in range(3):
+        if result.n_voxels[i]:
+            assert result.fitness[i] == pytest.approx(result.distance[i] - VOXEL_COST * result.n_voxels[i])
+        else:
+            assert result.fitness[i] == EMPTY_FITNESS[3]
+
+
+def test_all_backends_give_identical_fitness():
+    genomes = population()
+    reference = TASK.evaluate(genomes, SerialBackend()).fitness
+    for backend in (ThreadBackend(2), ProcessBackend(2)):
+        with backend:
+            assert np.array_equal(TASK.evaluate(genomes, backend).fitness, reference), backend.name
+    pytest.importorskip("ray")
+    with make_backend("ray", workers=2) as backend:
+        assert np.array_equal(TASK.evaluate(genomes, backend).fitness, reference)
+
+
+def test_a_diverging_simulation_is_penalised_not_raised():
+    unstable = locomotion.LocomotionTask(nca=NCA, physics=QUICK.replace_scene(timestep_safety=20.0), duration=0.02)
+    result = unstable.evaluate(population(), SerialBackend())
+    simulated = result.n_voxels > 0
+    assert simulated.any()
+    assert np.all(~result.stable[simulated]) and np.all(result.fitness[simulated] == UNSTABLE_FITNESS[2])
+    assert not result.failed.any()
+
+
+def test_a_raising_evaluation_is_contained(monkeypatch):
+    def explode(job):
+        raise RuntimeError("solver exploded")
+
+    monkeypatch.setattr(locomotion, "evaluate_robot", explode)
+    result = TASK.evaluate(population(), SerialBackend())
+    simulated = result.n_voxels > 0
+    assert np.all(result.failed[simulated]) and np.all(result.fitness[simulated] == UNSTABLE_FITNESS[2])
+    assert result.errors and "solver exploded" in result.errors[0]
