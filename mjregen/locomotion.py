@@ -12,38 +12,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from mjregen.evaluation import RobotJob, evaluate_robot
+from mjregen.evaluation import PopulationEvaluation, RobotJob, evaluate_robot
 from mjregen.nca import NCAConfig, grow
 from mjregen.parallel import Backend
 from mjregen.physics import Physics
 from mjregen.simulate import EMPTY_FITNESS, UNSTABLE_FITNESS
-
-
-@dataclass
-class PopulationEvaluation:
-    """Per-individual results of one generation (arrays of length P).
-
-    Attributes:
-      fitness: float64; the paper's fitness, or the penalty for unstable/failed runs.
-      distance: float64, voxel lengths (NaN when unstable or failed).
-      n_voxels: int.
-      stable: bool, False for unstable or failed runs.
-      failed: bool, True when the evaluation raised or its worker died, twice.
-      grids: int8 ``(P, *grid)``, the cleaned robots.
-      errors: one line per failed distinct robot.
-      n_distinct: distinct robots in the population (each simulated once).
-      sim_cpu_time: s, simulation CPU time summed over workers.
-    """
-
-    fitness: np.ndarray
-    distance: np.ndarray
-    n_voxels: np.ndarray
-    stable: np.ndarray
-    failed: np.ndarray
-    grids: np.ndarray
-    errors: list[str]
-    n_distinct: int
-    sim_cpu_time: float
 
 
 @dataclass(frozen=True)
@@ -92,7 +65,8 @@ class LocomotionTask:
                 fitness[d], distance[d], stable[d], failed[d] = UNSTABLE_FITNESS[dim], np.nan, False, True
                 errors.append(f"robot {d} (individual {firsts[d]}): {outcome.error}")
         return PopulationEvaluation(
-            fitness=fitness[owner], distance=distance[owner], n_voxels=n_voxels,
-            stable=stable[owner], failed=failed[owner], grids=grids, errors=errors,
-            n_distinct=n, sim_cpu_time=cpu,
+            fitness=fitness[owner], grids=grids,
+            details={"distance": distance[owner], "voxels": n_voxels},
+            stable=stable[owner], failed=failed[owner], errors=errors, n_distinct=n,
+            sim_cpu_time=cpu,
         )

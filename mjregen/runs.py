@@ -30,10 +30,10 @@ from tqdm import tqdm
 from mjregen import __version__
 from mjregen.checkpoint import save_nca
 from mjregen.errors import CheckpointError, MjregenError
+from mjregen.evaluation import PopulationEvaluation
 from mjregen.evolve import GAConfig, GeneticAlgorithm
 from mjregen.fileio import atomic_open
 from mjregen.grid import Robot
-from mjregen.locomotion import PopulationEvaluation
 from mjregen.nca import NCA, NCAConfig
 from mjregen.parallel import Backend
 
@@ -211,7 +211,7 @@ def run_evolution(
                     "best_genome": population[top]}
         stem = out / "best" / f"gen_{generation:04d}"
         metadata = {"generation": generation, "fitness": float(result.fitness[top]), "seed": seed,
-                    "distance": float(result.distance[top]), "voxels": int(result.n_voxels[top])}
+                    **{name: float(values[top]) for name, values in result.details.items()}}
         save_nca(stem.with_suffix(".npz"), NCA(task.nca, population[top]), metadata=metadata, overwrite=True)
         Robot(result.grids[top]).save(stem.with_suffix(".npy"), overwrite=True)
         wall = time.perf_counter() - start

@@ -49,8 +49,9 @@ def test_3d_fitness_subtracts_the_voxel_cost():
     genomes = random_genomes(nca3, 3, seed=1)
     result = task.evaluate(genomes, SerialBackend())
     for i in range(3):
-        if result.n_voxels[i]:
-            assert result.fitness[i] == pytest.approx(result.distance[i] - VOXEL_COST * result.n_voxels[i])
+        if result.details["voxels"][i]:
+            expected = result.details["distance"][i] - VOXEL_COST * result.details["voxels"][i]
+            assert result.fitness[i] == pytest.approx(expected)
         else:
             assert result.fitness[i] == EMPTY_FITNESS[3]
 
@@ -69,7 +70,7 @@ def test_all_backends_give_identical_fitness():
 def test_a_diverging_simulation_is_penalised_not_raised():
     unstable = locomotion.LocomotionTask(nca=NCA, physics=QUICK.replace_scene(timestep_safety=20.0), duration=0.02)
     result = unstable.evaluate(population(), SerialBackend())
-    simulated = result.n_voxels > 0
+    simulated = result.details["voxels"] > 0
     assert simulated.any()
     assert np.all(~result.stable[simulated]) and np.all(result.fitness[simulated] == UNSTABLE_FITNESS[2])
     assert not result.failed.any()
@@ -81,6 +82,6 @@ def test_a_raising_evaluation_is_contained(monkeypatch):
 
     monkeypatch.setattr(locomotion, "evaluate_robot", explode)
     result = TASK.evaluate(population(), SerialBackend())
-    simulated = result.n_voxels > 0
+    simulated = result.details["voxels"] > 0
     assert np.all(result.failed[simulated]) and np.all(result.fitness[simulated] == UNSTABLE_FITNESS[2])
     assert result.errors and "solver exploded" in result.errors[0]

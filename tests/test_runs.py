@@ -9,7 +9,7 @@ import pytest
 from mjregen.checkpoint import load_nca
 from mjregen.evolve import GAConfig
 from mjregen.grid import Robot
-from mjregen.locomotion import PopulationEvaluation
+from mjregen.evaluation import PopulationEvaluation
 from mjregen.nca import NCAConfig, grow
 from mjregen.parallel import SerialBackend
 from mjregen.runs import RunFolderError, run_evolution
@@ -25,11 +25,8 @@ class SphereTask:
     def evaluate(self, genomes, backend):
         fitness = -((genomes.astype(np.float64) - 0.05) ** 2).sum(axis=1)
         grids = grow(self.nca, genomes).grids
-        n = len(genomes)
-        return PopulationEvaluation(
-            fitness=fitness, distance=np.zeros(n), n_voxels=np.count_nonzero(grids.reshape(n, -1), axis=1),
-            stable=np.ones(n, bool), failed=np.zeros(n, bool), grids=grids, errors=[],
-            n_distinct=len({g.tobytes() for g in grids}), sim_cpu_time=0.0)
+        return PopulationEvaluation(fitness=fitness, grids=grids,
+                                    details={"voxels": np.count_nonzero(grids.reshape(len(grids), -1), axis=1)})
 
 
 class Killed(Exception):
