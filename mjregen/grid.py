@@ -226,15 +226,7 @@ class Robot:
             ``< <= > >=``, index an integer grid index, e.g. ``"x < 4"`` (the paper's cut of
             the 9-grid: x indices 0..3).
         """
-        axis, operator, index = _parse_half_space(condition, self.dim)
-        coordinate = np.indices(self.shape)[axis]
-        selected = {
-            "<": coordinate < index,
-            "<=": coordinate <= index,
-            ">": coordinate > index,
-            ">=": coordinate >= index,
-        }[operator]
-        return Robot(np.where(selected, 0, self._grid))
+        return Robot(np.where(half_space_mask(self.shape, condition), 0, self._grid))
 
     def save(self, path: str | os.PathLike, *, overwrite: bool = False) -> Path:
         """Write the grid to a `.npy` file atomically; never clobbers unless `overwrite`."""
@@ -305,6 +297,23 @@ def _render_layer(layer: np.ndarray, row_name: str) -> list[str]:
         cells = " ".join(SYMBOLS[Material(int(code))] for code in layer[:, row])
         rows.append(f"  {row_name}={row:>{width}}  {cells}")
     return rows
+
+
+def half_space_mask(shape: tuple[int, ...], condition: str) -> np.ndarray:
+    """Bool array of `shape`, True where the cell index satisfies `condition`.
+
+    Args:
+      condition: ``"<axis> <op> <index>"``, axis x/y/z (x/z in 2D), op one of ``< <= > >=``,
+        e.g. ``"x < 4"``.
+    """
+    axis, operator, index = _parse_half_space(condition, len(shape))
+    coordinate = np.indices(shape)[axis]
+    return {
+        "<": coordinate < index,
+        "<=": coordinate <= index,
+        ">": coordinate > index,
+        ">=": coordinate >= index,
+    }[operator]
 
 
 _HALF_SPACE = re.compile(r"^\s*([a-z])\s*(<=|>=|<|>)\s*(-?\d+)\s*$")

@@ -1,0 +1,148 @@
+"""Regeneration: damage a grown robot's CA state and regrow it with a second NCA.
+
+The paper's experiment: an NCA grows a robot; its left side (grid x-indices 0–3 of the
+9-grid) is cut away, state and alpha zeroed; a second, separately evolved NCA of the same
+family runs 10 growth steps from the damaged state, followed by the paper's cleaning. Its
+fitness is the number of grid cells whose material equals the original's (out of 729 in
+3D, 49 in 2D). That number counts the always-empty border and the empty space around the
+robot, so `robot_similarity` also reports agreement restricted to cells that either robot
+occupies.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+
+from mjregen.evaluation import PopulationEvaluation
+from mjregen.grid import Robot, half_space_mask
+from mjregen.nca import CAState, Growth, NCAConfig, grow
+from mjregen.parallel import Backend
+
+
+def state_of_growth(growth: Growth, index: int = 0) -> CAState:
+    """The CA state of individual `index` after growth *and* cleaning (cells removed by the
+    cleaning get state and alpha 0), as a population of one."""
+    keep = torch.from_numpy(growth.grids[index] != 0)
+    final = growth.final
+    memory = None if final.memory is None else tuple(m[index : index + 1].clone() for m in final.memory)
+    return CAState(
+        state=torch.from_numpy(growth.grids[index].astype(np.int64))[None],
+        alpha=torch.where(keep, final.alpha[index], 0.0)[None],
+        memory=memory,
+    )
+
+
+def state_of_robot(robot: Robot, config: NCAConfig) -> CAState:
+    """A CA state for a robot known only by its grid (e.g. the paper's robots): state = the
+    grid, alpha 1 on voxels and 0 elsewhere, LSTM memory ones (a fresh network's)."""
+    if robot.shape != config.grid_shape:
+        raise ValueError(f"robot shape {robot.shape} does not match the NCA grid {config.grid_shape}")
+    state = torch.from_numpy(robot.grid.astype(np.int64))[None]
+    return CAState(state, (state != 0).to(torch.float32), _fresh_memory(config, 1))
+
+
+def _fresh_memory(config: NCAConfig, population: int) -> tuple[torch.Tensor, torch.Tensor] | None:
+    return CAState.seed(config, population).memory
+
+
+def _erase(state: CAState, mask: np.ndarray) -> CAState:
+    """Zero state, alpha and memory of the cells in `mask` (bool, grid shape)."""
+    cells = torch.from_numpy(mask)
+    memory = None
+    if state.memory is not None:
+        inner = cells[(slice(1, -1),) * cells.dim()]  # memory covers the interior only
+        memory = tuple(torch.where(inner[None, ..., None], 0.0, m) for m in state.memory)
+    return CAState(
+        state=torch.where(cells[None], 0, state.state),
+        alpha=torch.where(cells[None], 0.0, state.alpha),
+        memory=memory,
+    )
+
+
+def cut_half_space(state: CAState, condition: str) -> CAState:
+    """Damage: erase every cell whose grid index satisfies `condition` (e.g. ``"x < 4"``)."""
+    return _erase(state, half_space_mask(tuple(state.state.shape[1:]), condition))
+
+
+def paper_cut(state: CAState) -> CAState:
+    """The paper's damage: the left side, grid x-indices below the centre (0–3 of 9)."""
+    return cut_half_space(state, f"x < {state.state.shape[1] // 2}")
+
+
+def remove_chunk(state: CAState, *, size: int, seed: int | np.random.Generator) -> CAState:
+    """Damage: erase a random face-connected chunk of up to `size` voxels, grown from a
+    random voxel by breadth-first search in random order."""
+    rng = np.random.default_rng(seed)
+    grid = state.state[0].numpy()
+    voxels = np.argwhere(grid != 0)
+    if len(voxels) == 0 or size < 1:
+        return state
+    start = tuple(voxels[rng.integers(len(voxels))])
+    chunk, frontier = {start}, [start]
+    dim = grid.ndim
+    while frontier and len(chunk) < size:
+        cell = frontier.pop(0)
+        neighbours = [tuple(c + d * (a == axis) for a, c in enumerate(cell))
+                      for axis in range(dim) for d in (-1, 1)]
+        for neighbour in rng.permutation(len(neighbours)):
+            n = neighbours[neighbour]
+            if n not in chunk and grid[n] != 0 and len(chunk) < size:
+                chunk.add(n)
+                frontier.append(n)
+    mask = np.zeros(grid.shape, dtype=bool)
+    mask[tuple(np.array(sorted(chunk)).T)] = True
+    return _erase(state, mask)
+
+
+def similarity(grids: np.ndarray, original: np.ndarray) -> np.ndarray:
+    """The paper's regeneration fitness: cells equal to `original`, per grid ``(P,)``."""
+    return (grids == original).reshape(len(grids), -1).sum(axis=1)
+
+
+def robot_similarity(grids: np.ndarray, original: np.ndarray) -> np.ndarray:
+    """Fraction, per grid ``(P,)``, of the cells occupied by either robot whose material
+    matches (1.0 = identical robots; empty space and the border do not count)."""
+    occupied = ((grids != 0) | (original != 0)).reshape(len(grids), -1)
+    equal = (grids == original).reshape(len(grids), -1) & occupied
+    return equal.sum(axis=1) / np.maximum(occupied.sum(axis=1), 1)
+
+
+@dataclass(frozen=True)
+class RegrowthTask:
+    """Evolve an NCA that regrows `original` from the `damaged` state.
+
+    Attributes:
+      nca: configuration of the regrowth NCA (its grid must match the robot's).
+      original: int8 grid of the intact robot.
+      damaged: the damaged CA state (a population of one). A feed-forward regrowth NCA
+        ignores its memory; an LSTM one starts with fresh memory (ones), as the paper's code
+        does, since the damaged state's memory belongs to another network.
+    """
+
+    nca: NCAConfig
+    original: np.ndarray
+    damaged: CAState
+
+    def start(self, population: int) -> CAState:
+        """The damaged state repeated for `population` individuals."""
+        repeat = (population,) + (1,) * self.nca.dim
+        return CAState(self.damaged.state.repeat(repeat), self.damaged.alpha.repeat(repeat),
+                       _fresh_memory(self.nca, population))
+
+    def regrow(self, genomes: np.ndarray) -> Growth:
+        """Regrowth of every genome ``(P, G)`` (or one ``(G,)``) from the damaged state."""
+        genomes = np.asarray(genomes).reshape(-1, self.nca.genome_size)
+        return grow(self.nca, genomes, start=self.start(len(genomes)))
+
+    def evaluate(self, genomes: np.ndarray, backend: Backend) -> PopulationEvaluation:
+        """Fitness = `similarity` to the original (no physics; `backend` is not needed)."""
+        grids = self.regrow(genomes).grids
+        score = similarity(grids, self.original)
+        return PopulationEvaluation(
+            fitness=score.astype(np.float64), grids=grids,
+            details={"similarity": score, "robot_similarity": robot_similarity(grids, self.original),
+                     "voxels": np.count_nonzero(grids.reshape(len(grids), -1), axis=1)},
+        )
