@@ -130,18 +130,23 @@ def _probe(backend: str) -> str | None:
     return lines[-1] if lines else f"exit status {done.returncode}"
 
 
-def _gl_context(backend: str, width: int, height: int) -> object:
-    """An off-screen OpenGL context of `backend`, made current."""
+def _gl_context(backend: str, model: mujoco.MjModel) -> tuple[object, mujoco.MjrContext]:
+    """An off-screen OpenGL context of `backend` (made current) and MuJoCo's render context
+    of `model` drawing into its off-screen buffer."""
+    import mujoco
+
     try:
         module = importlib.import_module(f"mujoco.{backend}")
-        context = module.GLContext(width, height)
+        context = module.GLContext(model.vis.global_.offwidth, model.vis.global_.offheight)
         context.make_current()
+        mjr = mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_100)
     except Exception as error:  # any failure of the GL stack means: this backend is unusable
         raise GLBackendError(
             f"cannot create an OpenGL context with MUJOCO_GL={backend}: "
             f"{type(error).__name__}: {error}. {INSTALL_HINT[backend]}; or set MUJOCO_GL to "
             f"another of {', '.join(BACKENDS)} (in a new process)") from error
-    return context
+    mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, mjr)
+    return context, mjr
 
 
 @dataclass(frozen=True)
@@ -202,12 +207,10 @@ class RobotRenderer:
         self._option = mujoco.MjvOption()
         self._option.flags[mujoco.mjtVisFlag.mjVIS_TENDON] = False
         self._option.sitegroup[:] = 0
-        self._context = _gl_context(self.backend, view.width, view.height)
+        self._context, self._mjr = _gl_context(self.backend, self.model)
         self._scene = mujoco.MjvScene(self.model, maxgeom=self.model.ngeom + 100)
         for flag in (mujoco.mjtRndFlag.mjRND_SHADOW, mujoco.mjtRndFlag.mjRND_REFLECTION):
             self._scene.flags[flag] = False
-        self._mjr = mujoco.MjrContext(self.model, mujoco.mjtFontScale.mjFONTSCALE_100)
-        mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self._mjr)
         self._rect = mujoco.MjrRect(0, 0, view.width, view.height)
         self._pixels = np.empty((view.height, view.width, 3), dtype=np.uint8)
 
@@ -270,6 +273,10 @@ def _render_model(compiled: CompiledRobot, view: View) -> mujoco.MjModel:
     spec.worldbody.add_light(name="sun", type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL,
                              pos=[0.0, 0.0, 1.0], dir=[0.4, 0.2, -1.0], castshadow=False,
                              diffuse=[0.4] * 3)
+    spec.add_material(name="voxel", specular=0.1, shininess=0.2)
+    voxel_geoms = compiled.model.body_geomadr[compiled.body_ids]
+    for geom in voxel_geoms:
+        spec.geom(compiled.model.geom(geom).name).material = "voxel"
     floors = [g for g in spec.geoms if g.type == mujoco.mjtGeom.mjGEOM_PLANE]
     if floors:
         spec.add_texture(name="grid", type=mujoco.mjtTexture.mjTEXTURE_2D,
@@ -282,10 +289,9 @@ def _render_model(compiled: CompiledRobot, view: View) -> mujoco.MjModel:
             floor.material = "grid"
             floor.size = [500 * voxel, 500 * voxel, 20 * voxel]
     model = spec.compile()
-    geoms = model.body_geomadr[compiled.body_ids]
     materials = compiled.robot.grid[tuple(compiled.voxel_index.T)]
-    model.geom_rgba[geoms] = [MATERIAL_RGBA[Material(int(m))] for m in materials]
-    model.geom_size[geoms] *= VOXEL_DRAW_SCALE
+    model.geom_rgba[voxel_geoms] = [MATERIAL_RGBA[Material(int(m))] for m in materials]
+    model.geom_size[voxel_geoms] *= VOXEL_DRAW_SCALE
     return model
 
 
