@@ -11,11 +11,12 @@ import sys
 from typing import Callable, Sequence
 
 from mjregen import __version__
-from mjregen.cli import evolution, robots
+from mjregen.cli import evolution, regeneration, robots
 from mjregen.errors import MjregenError
 
 Handler = Callable[[argparse.Namespace], int]
-COMMANDS = (robots.add_grow, robots.add_show, evolution.add_evolve, evolution.add_evolve_stats)
+COMMANDS = (robots.add_grow, robots.add_show, evolution.add_evolve, evolution.add_evolve_stats,
+            regeneration.add_regen)
 
 
 def build_parser() -> argparse.ArgumentParser:
