@@ -1,0 +1,90 @@
+"""Evaluation throughput of the 3D locomotion pipeline on each backend, and a real short
+evolution.
+
+    python benchmarks/evolution.py backends [--pop 20] [--seed 0] [--json out.json]
+    python benchmarks/evolution.py short-run [--pop 20] [--gens 5] [--out runs/short3d]
+
+`backends` grows one 3D population (the paper's initial genes, so most robots are large
+blocks) and evaluates it serially, on 2 worker processes and on 2 threads: wall and CPU
+time, evaluations per second, parallel efficiency, and the projected wall time of a
+paper-size 3D run (100 x 300) at that rate. `short-run` runs a real evolution with the
+paper's 3D GA (population and generations reduced) and prints the best fitness per
+generation.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+
+import numpy as np
+
+from mjregen.evolve import PRESETS
+from mjregen.locomotion import LocomotionTask
+from mjregen.nca import NCAConfig, random_genomes
+from mjregen.parallel import make_backend
+from mjregen.runs import run_evolution
+
+
+def backends(args: argparse.Namespace) -> dict:
+    task = LocomotionTask(nca=NCAConfig(dim=3, kind="ff"))
+    genomes = random_genomes(task.nca, args.pop, seed=args.seed)
+    rows, reference = [], None
+    for name, workers in (("serial", 1), ("process", 2), ("thread", 2)):
+        with make_backend(name, workers=workers) as backend:
+            wall, cpu = time.perf_counter(), time.process_time()
+            result = task.evaluate(genomes, backend)
+            wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+        if reference is None:
+            reference = result.fitness
+        rows.append({
+            "backend": name, "workers": workers, "wall_s": wall,
+            "driver_cpu_s": cpu, "simulation_cpu_s": result.sim_cpu_time,
+            "evals_per_s": args.pop / wall, "distinct_robots": result.n_distinct,
+            "same_fitness_as_serial": bool(np.array_equal(result.fitness, reference)),
+        })
+    serial = rows[0]["wall_s"]
+    for row in rows:
+        row["parallel_efficiency"] = serial / row["wall_s"] / row["workers"]
+        row["projected_paper_run_h"] = 100 * 300 / row["evals_per_s"] / 3600
+    print(f"3D ff, population {args.pop} (seed {args.seed}), "
+          f"{rows[0]['distinct_robots']} distinct robots")
+    print(f"{'backend':8s} {'wall s':>8s} {'sim cpu s':>9s} {'evals/s':>8s} {'efficiency':>10s} "
+          f"{'paper run h':>11s}")
+    for r in rows:
+        print(f"{r['backend']:8s} {r['wall_s']:8.1f} {r['simulation_cpu_s']:9.1f} {r['evals_per_s']:8.3f} "
+              f"{r['parallel_efficiency']:10.2f} {r['projected_paper_run_h']:11.1f}")
+    return {"population": args.pop, "seed": args.seed, "rows": rows}
+
+
+def short_run(args: argparse.Namespace) -> dict:
+    ga = PRESETS["3d"].with_overrides(population=args.pop, generations=args.gens,
+                                      truncation=max(2, args.pop // 5), elites=max(1, args.pop // 5))
+    task = LocomotionTask(nca=NCAConfig(dim=3, kind="ff"))
+    best = []
+    with make_backend("process", workers=2) as backend:
+        run_evolution(task, ga, seed=args.seed, out=args.out, backend=backend, force=True,
+                      task_config={"benchmark": "short-run", "ga": ga.to_dict()},
+                      on_generation=lambda row: best.append(float(row["best"])))
+    print("best fitness per generation:", " ".join(f"{b:.3f}" for b in best))
+    return {"ga": ga.to_dict(), "seed": args.seed, "best": best}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("mode", choices=("backends", "short-run"))
+    parser.add_argument("--pop", type=int, default=20)
+    parser.add_argument("--gens", type=int, default=5)
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--out", default="runs/short3d")
+    parser.add_argument("--json", help="also write the results here")
+    args = parser.parse_args()
+    results = backends(args) if args.mode == "backends" else short_run(args)
+    if args.json:
+        with open(args.json, "w") as handle:
+            json.dump(results, handle, indent=2)
+
+
+if __name__ == "__main__":
+    main()
