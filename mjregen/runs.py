@@ -36,6 +36,7 @@ from mjregen.fileio import atomic_open
 from mjregen.grid import Robot
 from mjregen.nca import NCA, NCAConfig
 from mjregen.parallel import Backend
+from mjregen.plotting import line_axes, save_png
 
 RUN_FORMAT = "mjregen-run-1"
 PLOT_EVERY = 10.0  # s of wall time between redraws of fitness.png (and after the last generation)
@@ -133,24 +134,11 @@ def _write_metrics(path: Path, rows: list[dict]) -> None:
 
 def plot_fitness(rows: list[dict], path: Path, title: str) -> None:
     """Best and mean fitness per generation as a PNG."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     generations = [int(r["generation"]) for r in rows]
-    fig, ax = plt.subplots(figsize=(6, 4), dpi=100)
+    figure, ax = line_axes(xlabel="generation", ylabel="fitness", title=title)
     ax.plot(generations, [float(r["best"]) for r in rows], label="best")
     ax.plot(generations, [float(r["mean"]) for r in rows], label="mean")
-    ax.set_xlabel("generation")
-    ax.set_ylabel("fitness")
-    ax.set_title(title)
-    ax.grid(alpha=0.3)
-    ax.legend()
-    fig.tight_layout()
-    with atomic_open(path) as handle:
-        fig.savefig(handle, format="png")
-    plt.close(fig)
+    save_png(figure, path)
 
 
 def run_evolution(

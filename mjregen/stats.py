@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from mjregen.errors import MjregenError
-from mjregen.fileio import atomic_open
+from mjregen.plotting import line_axes, save_png
 
 
 @dataclass(frozen=True)
@@ -63,20 +63,8 @@ def group_stats(runs: list[str | Path], column: str = "best", **kwargs: object) 
 
 def plot_groups(groups: dict[str, CurveStats], path: str | Path, *, ylabel: str = "best fitness") -> None:
     """Mean curves with shaded CIs, one per group, as a PNG."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(6, 4), dpi=100)
+    figure, ax = line_axes(xlabel="generation", ylabel=ylabel)
     for label, stats in groups.items():
         line, = ax.plot(stats.generations, stats.mean, label=f"{label} (n={stats.n_runs})")
         ax.fill_between(stats.generations, stats.low, stats.high, color=line.get_color(), alpha=0.25)
-    ax.set_xlabel("generation")
-    ax.set_ylabel(ylabel)
-    ax.grid(alpha=0.3)
-    ax.legend()
-    fig.tight_layout()
-    with atomic_open(path) as handle:
-        fig.savefig(handle, format="png")
-    plt.close(fig)
+    save_png(figure, path)

@@ -2,9 +2,43 @@
 
 from __future__ import annotations
 
+import argparse
+from pathlib import Path
+
+from mjregen.errors import MjregenError
+from mjregen.evolve import PRESETS, GAConfig
 from mjregen.grid import Material, Robot
 
 
 def material_counts(robot: Robot) -> dict[str, int]:
     """Voxels per material, by lower-case name, empty left out."""
     return {m.name.lower(): n for m, n in robot.material_counts().items() if m != Material.EMPTY}
+
+
+def add_ga_arguments(parser: argparse.ArgumentParser, *, preset_help: str) -> None:
+    """--preset and the GA numbers that override it."""
+    parser.add_argument("--preset", choices=sorted(PRESETS), help=preset_help)
+    parser.add_argument("--pop", type=int, help="population size")
+    parser.add_argument("--gens", type=int, help="generations")
+    parser.add_argument("--truncation", type=int, help="parents are drawn from the top T")
+    parser.add_argument("--elites", type=int, help="individuals kept unchanged")
+    parser.add_argument("--sigma", type=float, help="mutation standard deviation")
+
+
+def ga_config(args: argparse.Namespace, default_preset: str) -> GAConfig:
+    """The preset named by --preset (else `default_preset`) with the given numbers replaced."""
+    try:
+        return PRESETS[args.preset or default_preset].with_overrides(
+            population=args.pop, generations=args.gens, truncation=args.truncation,
+            elites=args.elites, sigma=args.sigma)
+    except ValueError as error:
+        raise MjregenError(str(error)) from None
+
+
+def add_run_folder_arguments(parser: argparse.ArgumentParser, *, resume_help: str) -> None:
+    """--out, --resume | --force and --quiet, as every run-folder command has them."""
+    parser.add_argument("--out", type=Path, required=True, help="run folder")
+    folder = parser.add_mutually_exclusive_group()
+    folder.add_argument("--resume", action="store_true", help=resume_help)
+    folder.add_argument("--force", action="store_true", help="delete --out first")
+    parser.add_argument("--quiet", action="store_true", help="no progress bars")

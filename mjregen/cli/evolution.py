@@ -6,11 +6,11 @@ import argparse
 import json
 from pathlib import Path
 
+from mjregen.cli.common import add_ga_arguments, add_run_folder_arguments, ga_config
 from mjregen.errors import MjregenError
 
 
 def add_evolve(subparsers: argparse._SubParsersAction) -> None:
-    from mjregen.evolve import PRESETS
     from mjregen.parallel import BACKENDS
 
     parser = subparsers.add_parser(
@@ -24,12 +24,7 @@ def add_evolve(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--task", choices=("locomotion",), default="locomotion")
     parser.add_argument("--dim", type=int, choices=(2, 3), help="2D or 3D robots (default 3)")
     parser.add_argument("--net", choices=("ff", "lstm"), help="NCA network (default ff)")
-    parser.add_argument("--preset", choices=sorted(PRESETS), help="GA preset (default: 2d or 3d by --dim)")
-    parser.add_argument("--pop", type=int, help="population size")
-    parser.add_argument("--gens", type=int, help="generations")
-    parser.add_argument("--truncation", type=int, help="parents are drawn from the top T")
-    parser.add_argument("--elites", type=int, help="individuals kept unchanged")
-    parser.add_argument("--sigma", type=float, help="mutation standard deviation")
+    add_ga_arguments(parser, preset_help="GA preset (default: 2d or 3d by --dim)")
     parser.add_argument("--settle", type=float,
                         help="s without actuation before measuring (default: the paper's, 3D 0.05, 2D 1.0)")
     parser.add_argument("--duration", type=float,
@@ -39,18 +34,12 @@ def add_evolve(subparsers: argparse._SubParsersAction) -> None:
                         help="where simulations run (default: local processes)")
     parser.add_argument("--workers", type=int, help="parallel workers (default: all cores)")
     parser.add_argument("--address", help="Ray cluster address (with --backend ray)")
-    parser.add_argument("--out", type=Path, required=True, help="run folder")
-    folder = parser.add_mutually_exclusive_group()
-    folder.add_argument("--resume", action="store_true",
-                        help="continue the run in --out with its stored settings")
-    folder.add_argument("--force", action="store_true", help="delete --out first")
-    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_run_folder_arguments(parser, resume_help="continue the run in --out with its stored settings")
     parser.add_argument("--json", action="store_true", help="print a JSON summary at the end")
     parser.set_defaults(handler=_evolve)
 
 
 def _evolve(args: argparse.Namespace) -> int:
-    from mjregen.evolve import PRESETS
     from mjregen.locomotion import LocomotionTask
     from mjregen.nca import NCAConfig
     from mjregen.parallel import make_backend
@@ -61,12 +50,7 @@ def _evolve(args: argparse.Namespace) -> int:
         task, ga, seed = _stored_run(args)
     else:
         dim = args.dim or 3
-        preset = PRESETS[args.preset or f"{dim}d"]
-        try:
-            ga = preset.with_overrides(population=args.pop, generations=args.gens,
-                                       truncation=args.truncation, elites=args.elites, sigma=args.sigma)
-        except ValueError as error:
-            raise MjregenError(str(error)) from None
+        ga = ga_config(args, f"{dim}d")
         physics = Physics() if args.settle is None else Physics().replace_scene(settle_time=args.settle)
         task = LocomotionTask(nca=NCAConfig(dim=dim, kind=args.net or "ff"), physics=physics,
                               duration=args.duration)

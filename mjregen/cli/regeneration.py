@@ -8,14 +8,13 @@ from pathlib import Path
 
 import numpy as np
 
+from mjregen.cli.common import add_ga_arguments, add_run_folder_arguments, ga_config
 from mjregen.errors import MjregenError
 
 PAPER_ROBOTS = Path(__file__).resolve().parents[2] / "assets" / "robots" / "paper"
 
 
 def add_regen(subparsers: argparse._SubParsersAction) -> None:
-    from mjregen.evolve import PRESETS
-
     parser = subparsers.add_parser(
         "regen",
         help="evolve an NCA that regrows a damaged robot, and measure locomotion recovery",
@@ -32,20 +31,11 @@ def add_regen(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--damage", help="cells removed, e.g. 'x < 4' (default: the paper's cut, "
                         "x below the grid centre)")
     parser.add_argument("--net", choices=("ff", "lstm"), help="regrowth NCA (default ff)")
-    parser.add_argument("--preset", choices=sorted(PRESETS), default="regen")
-    parser.add_argument("--pop", type=int)
-    parser.add_argument("--gens", type=int)
-    parser.add_argument("--truncation", type=int)
-    parser.add_argument("--elites", type=int)
-    parser.add_argument("--sigma", type=float)
+    add_ga_arguments(parser, preset_help="GA preset (default: regen, the paper's)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--duration", type=float, help="s of walking measured (default: the paper's)")
-    parser.add_argument("--out", type=Path, required=True, help="run folder")
-    folder = parser.add_mutually_exclusive_group()
-    folder.add_argument("--resume", action="store_true", help="continue the run in --out")
-    folder.add_argument("--force", action="store_true", help="delete --out first")
+    add_run_folder_arguments(parser, resume_help="continue the run in --out (same arguments)")
     parser.add_argument("--no-video", action="store_true", help="skip the three videos")
-    parser.add_argument("--quiet", action="store_true", help="no progress bars")
     parser.add_argument("--json", action="store_true", help="print the recovery report as JSON")
     parser.set_defaults(handler=_regen)
 
@@ -70,7 +60,6 @@ def _original(args: argparse.Namespace):
 
 
 def _regen(args: argparse.Namespace) -> int:
-    from mjregen.evolve import PRESETS
     from mjregen.grid import Robot
     from mjregen.nca import CAState, NCAConfig
     from mjregen.parallel import SerialBackend
@@ -83,12 +72,7 @@ def _regen(args: argparse.Namespace) -> int:
     original, state, source = _original(args)
     damaged_state = paper_cut(state) if args.damage is None else cut_half_space(state, args.damage)
     config = NCAConfig(dim=original.dim, kind=args.net or "ff")
-    try:
-        ga = PRESETS[args.preset].with_overrides(population=args.pop, generations=args.gens,
-                                                 truncation=args.truncation, elites=args.elites,
-                                                 sigma=args.sigma)
-    except ValueError as error:
-        raise MjregenError(str(error)) from None
+    ga = ga_config(args, "regen")
     task = RegrowthTask(nca=config, original=np.asarray(original.grid),
                         damaged=CAState(damaged_state.state, damaged_state.alpha, None))
     task_config = {
