@@ -33,7 +33,7 @@ import subprocess
 import sys
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
 from tqdm import tqdm
@@ -472,7 +472,7 @@ def write_frames(compiled: CompiledRobot, qpos: np.ndarray, folder: str | os.Pat
 
 
 def growth_figure(states: np.ndarray, path: str | os.PathLike, *, overwrite: bool = False,
-                  columns: int = 6) -> Path:
+                  columns: int = 6, titles: Sequence[str] | None = None) -> Path:
     """PNG of the grid at every growth step (3D: voxel plots; 2D: images, z up).
 
     Args:
@@ -481,9 +481,11 @@ def growth_figure(states: np.ndarray, path: str | os.PathLike, *, overwrite: boo
       path: ``.png`` file to write (atomically).
       overwrite: replace an existing file.
       columns: panels per row.
+      titles: one per state; None = "step k".
     Raises:
       InvalidGridError: a state is not a valid grid.
-      ValueError: `path` is not ``.png`` or `states` has the wrong number of dimensions.
+      ValueError: `path` is not ``.png``, `states` has the wrong number of dimensions, or
+        `titles` the wrong length.
       FileExistsError: `path` exists and not `overwrite`.
     """
     from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -498,6 +500,9 @@ def growth_figure(states: np.ndarray, path: str | os.PathLike, *, overwrite: boo
     if states.ndim not in (3, 4) or len(states) == 0:
         raise ValueError(f"states must be (steps, *grid) of 2D or 3D grids, got {states.shape}")
     grids = [validate_grid(state) for state in states]
+    titles = [f"step {k}" for k in range(len(grids))] if titles is None else list(titles)
+    if len(titles) != len(grids):
+        raise ValueError(f"{len(titles)} titles for {len(grids)} states")
     dim = grids[0].ndim
     rgba = np.zeros((len(Material), 4))
     rgba[Material.EMPTY] = (1.0, 1.0, 1.0, 1.0)
@@ -507,8 +512,8 @@ def growth_figure(states: np.ndarray, path: str | os.PathLike, *, overwrite: boo
     rows = -(-len(grids) // columns)
     figure = Figure(figsize=(2.4 * columns, 2.6 * rows))
     FigureCanvasAgg(figure)
-    for step, grid in enumerate(grids):
-        title = f"step {step}: {np.count_nonzero(grid)} voxels"
+    for step, (grid, name) in enumerate(zip(grids, titles)):
+        title = f"{name}: {np.count_nonzero(grid)} voxels"
         if dim == 3:
             ax = figure.add_subplot(rows, columns, step + 1, projection="3d")
             ax.voxels(grid != 0, facecolors=rgba[grid], edgecolor=(0, 0, 0, 0.3), linewidth=0.3)

@@ -7,7 +7,7 @@ writes into the output folder (default ./grow_and_walk_out):
 
   robot.npy     the grown robot (mjregen robot file)
   robot.xml     its MuJoCo model (loads in plain MuJoCo)
-  growth.png    the grid at every growth step (not with --robot)
+  growth.png    the grid at every growth step and after cleaning (not with --robot)
   walk.mp4      the walk, in slow motion (not with --no-video)
   summary.json  source, distance, fitness, voxels, settings
 
@@ -131,7 +131,9 @@ def run(args: argparse.Namespace) -> dict:
     out.mkdir(parents=True, exist_ok=True)
     robot.save(out / "robot.npy", overwrite=args.force)
     if states is not None:
-        growth_figure(states, out / "growth.png", overwrite=args.force)
+        titles = [f"step {k}" for k in range(len(states))] + ["cleaned"]
+        growth_figure(np.concatenate([states, robot.grid[None]]), out / "growth.png",
+                      overwrite=args.force, titles=titles)
     if robot.is_empty:
         raise MjregenError(f"{source} grew an empty robot: nothing to walk (robot.npy and "
                            "growth.png are written)")

@@ -229,3 +229,5 @@ def test_growth_figure_rejects_bad_input(tmp_path):
         growth_figure(np.zeros((5, 5)), tmp_path / "g.png")
     with pytest.raises(ValueError, match=".png"):
         growth_figure(np.zeros((1, 5, 5)), tmp_path / "g.jpg")
+    with pytest.raises(ValueError, match="2 titles for 1 states"):
+        growth_figure(np.zeros((1, 5, 5)), tmp_path / "g.png", titles=["a", "b"])
