@@ -431,7 +431,9 @@ def write_video(compiled: CompiledRobot, qpos: np.ndarray, path: str | os.PathLi
         raise VideoError(f"qpos must be (frames, nq) with at least one frame, got {qpos.shape}")
     if path.exists() and not overwrite:
         raise FileExistsError(f"{path} exists; pass overwrite=True to replace it")
-    mediapy.set_ffmpeg(find_ffmpeg())
+    ffmpeg = find_ffmpeg()
+    _log.info("writing %s with %s", path, ffmpeg)
+    mediapy.set_ffmpeg(ffmpeg)
     path.parent.mkdir(parents=True, exist_ok=True)
     partial = path.with_name(f".{path.stem}.partial.mp4")
     try:

@@ -14,7 +14,7 @@ from mjregen.compile import compile_robot
 from mjregen.errors import InvalidGridError
 from mjregen.grid import Material, Robot
 from mjregen.render import (
-    MATERIAL_RGBA, GLBackendError, RobotRenderer, VideoError, View, growth_figure,
+    MATERIAL_RGBA, GLBackendError, RobotRenderer, VideoError, View, find_ffmpeg, growth_figure,
     record_walk, select_gl_backend, walk_frame_count, write_frames, write_video)
 from mjregen.simulate import simulate
 
@@ -193,6 +193,23 @@ def test_video_has_the_frames_and_is_not_overwritten(backend, tmp_path):
         write_video(compiled, walk.qpos, path, view=SMALL, backend=backend)
     with pytest.raises(VideoError, match=".mp4"):
         write_video(compiled, walk.qpos, tmp_path / "walk.avi", view=SMALL, backend=backend)
+
+
+def test_ffmpeg_is_found_or_named(monkeypatch):
+    import shutil
+
+    monkeypatch.setattr(shutil, "which", lambda name: None)  # no system ffmpeg
+    assert find_ffmpeg() == imageio_ffmpeg.get_ffmpeg_exe()
+    monkeypatch.setitem(sys.modules, "imageio_ffmpeg", None)  # and no imageio-ffmpeg
+    with pytest.raises(VideoError, match="apt-get install ffmpeg.*imageio-ffmpeg"):
+        find_ffmpeg()
+
+
+@pytest.mark.parametrize("kwargs, problem", [({"fps": 0}, "fps"), ({"slowdown": 0.0}, "slowdown"),
+                                             ({"duration": -1.0}, "duration")])
+def test_bad_walk_settings_are_rejected(kwargs, problem):
+    with pytest.raises(ValueError, match=problem):
+        record_walk(compile_robot(block(Material.SOFT)), **kwargs)
 
 
 def test_png_frames(backend, tmp_path):
