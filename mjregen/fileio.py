@@ -25,6 +25,9 @@ def atomic_open(path: str | os.PathLike, mode: str = "wb", *, overwrite: bool = 
     try:
         with handle:
             yield handle
+        umask = os.umask(0)  # read the umask (there is no getter) and restore it
+        os.umask(umask)
+        os.chmod(handle.name, 0o666 & ~umask)  # temporary files are created 0600
         os.replace(handle.name, path)
     except BaseException:
         Path(handle.name).unlink(missing_ok=True)

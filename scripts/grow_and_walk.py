@@ -120,7 +120,8 @@ def run(args: argparse.Namespace) -> dict:
         print(f"rendering with MUJOCO_GL={select_gl_backend()}")
 
     from mjregen.compile import compile_robot
-    from mjregen.render import growth_figure, record_walk, write_video
+    from mjregen.figures import growth_figure
+    from mjregen.render import record_walk, write_video
     from mjregen.simulate import simulate
 
     print(f"source: {source}")

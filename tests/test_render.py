@@ -13,9 +13,10 @@ import pytest
 from mjregen.compile import compile_robot
 from mjregen.errors import InvalidGridError
 from mjregen.grid import Material, Robot
+from mjregen.figures import MATERIAL_RGBA, growth_figure
 from mjregen.render import (
-    MATERIAL_RGBA, GLBackendError, RobotRenderer, VideoError, View, find_ffmpeg, growth_figure,
-    record_walk, select_gl_backend, walk_frame_count, write_frames, write_video)
+    GLBackendError, RobotRenderer, VideoError, View, find_ffmpeg, record_walk, select_gl_backend,
+    walk_frame_count, write_frames, write_video)
 from mjregen.simulate import simulate
 
 SMALL = View(width=160, height=120)

@@ -66,7 +66,7 @@ def _regen(args: argparse.Namespace) -> int:
     from mjregen.physics import Physics
     from mjregen.recovery import measure_recovery, write_report
     from mjregen.regen import RegrowthTask, cut_half_space, paper_cut
-    from mjregen.render import growth_figure
+    from mjregen.figures import growth_figure
     from mjregen.runs import run_evolution
 
     original, state, source = _original(args)
@@ -93,8 +93,10 @@ def _regen(args: argparse.Namespace) -> int:
     }
     for role, robot in robots.items():
         robot.save(args.out / f"{role}.npy", overwrite=True)
-    growth_figure(regrowth.states[0], args.out / "regrowth.png", overwrite=True)
-    growth_figure(np.stack([robots[r].grid for r in robots]), args.out / "robots.png", overwrite=True)
+    growth_figure(regrowth.states[0], args.out / "regrowth.png", overwrite=True,
+                  titles=[f"regrowth step {i}" for i in range(len(regrowth.states[0]))])
+    growth_figure(np.stack([robots[r].grid for r in robots]), args.out / "robots.png", overwrite=True,
+                  titles=[f"{role}: {robot.n_voxels} voxels" for role, robot in robots.items()])
     physics = Physics()
     report = measure_recovery(robots, physics=physics, duration=args.duration)
     name = args.paper or Path(source).stem

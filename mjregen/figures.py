@@ -1,0 +1,79 @@
+"""Figures of robot grids: the paper's material colours and growth sequences as PNG."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+
+from mjregen.fileio import atomic_open
+from mjregen.grid import Material
+
+MATERIAL_RGBA: dict[Material, tuple[float, float, float, float]] = {
+    Material.SOFT: (0.55, 0.80, 1.00, 1.0),  # light blue
+    Material.HARD: (0.10, 0.22, 0.75, 1.0),  # dark blue
+    Material.MUSCLE_PLUS: (0.90, 0.15, 0.15, 1.0),  # red
+    Material.MUSCLE_MINUS: (0.20, 0.75, 0.25, 1.0),  # green
+}
+
+
+def growth_figure(states: np.ndarray, path: str | os.PathLike, *, overwrite: bool = False,
+                  columns: int = 6, titles: Sequence[str] | None = None) -> Path:
+    """PNG of the grid at every growth step (3D: voxel plots; 2D: images, z up).
+
+    Args:
+      states: int ``(T, X, Y, Z)`` or ``(T, X, Z)`` material codes, e.g.
+        ``nca.grow().states[0]``; T >= 1.
+      path: ``.png`` file to write (atomically).
+      overwrite: replace an existing file.
+      columns: panels per row.
+      titles: one per state; None = "step k".
+    Raises:
+      InvalidGridError: a state is not a valid grid.
+      ValueError: `path` is not ``.png``, `states` has the wrong number of dimensions, or
+        `titles` the wrong length.
+      FileExistsError: `path` exists and not `overwrite`.
+    """
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    from mjregen.grid import validate_grid
+
+    path = Path(path)
+    if path.suffix != ".png":
+        raise ValueError(f"growth figures are .png files; got {str(path)!r}")
+    states = np.asarray(states)
+    if states.ndim not in (3, 4) or len(states) == 0:
+        raise ValueError(f"states must be (steps, *grid) of 2D or 3D grids, got {states.shape}")
+    grids = [validate_grid(state) for state in states]
+    titles = [f"step {k}" for k in range(len(grids))] if titles is None else list(titles)
+    if len(titles) != len(grids):
+        raise ValueError(f"{len(titles)} titles for {len(grids)} states")
+    dim = grids[0].ndim
+    rgba = np.zeros((len(Material), 4))
+    rgba[Material.EMPTY] = (1.0, 1.0, 1.0, 1.0)
+    for material, colour in MATERIAL_RGBA.items():
+        rgba[material] = colour
+    columns = min(columns, len(grids))
+    rows = -(-len(grids) // columns)
+    figure = Figure(figsize=(2.4 * columns, 2.6 * rows))
+    FigureCanvasAgg(figure)
+    for step, (grid, name) in enumerate(zip(grids, titles)):
+        title = f"{name}: {np.count_nonzero(grid)} voxels"
+        if dim == 3:
+            ax = figure.add_subplot(rows, columns, step + 1, projection="3d")
+            ax.voxels(grid != 0, facecolors=rgba[grid], edgecolor=(0, 0, 0, 0.3), linewidth=0.3)
+            ax.set(xlim=(0, grid.shape[0]), ylim=(0, grid.shape[1]), zlim=(0, grid.shape[2]),
+                   xticks=[], yticks=[], zticks=[])
+            ax.set_box_aspect(grid.shape)
+        else:
+            ax = figure.add_subplot(rows, columns, step + 1)
+            ax.imshow(rgba[grid.T], origin="lower", interpolation="nearest")
+            ax.set(xticks=[], yticks=[], xlabel="x", ylabel="z")
+        ax.set_title(title, fontsize=9)
+    figure.tight_layout()
+    with atomic_open(path, overwrite=overwrite) as handle:
+        figure.savefig(handle, format="png", dpi=100)
+    return path
