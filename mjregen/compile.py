@@ -117,9 +117,15 @@ class CompiledRobot:
         return self.spec.to_xml()
 
 
-def bond_geometry(poisson_ratio: float, voxel_size: float) -> tuple[float, float]:
-    """(a, b) in m: tendon-site offsets calibrated to beam theory (see module docstring)."""
-    return voxel_size / math.sqrt(6.0), voxel_size / (2.0 * math.sqrt(1.0 + poisson_ratio))
+def bond_geometry(poisson_ratio: float, voxel_size: float, *,
+                  bond_model: str = "timoshenko") -> tuple[float, float]:
+    """(a, b) in m: tendon-site offsets calibrated to beam theory (see module docstring).
+
+    b = L·sqrt(G/2E): G = E/(2(1+ν)) for "timoshenko"; G = E for "euler_bernoulli" (a
+    transverse stiffness of E·L = 12EI/L³, the shear-rigid beam of the paper's engine).
+    """
+    shear_ratio = 1.0 if bond_model == "euler_bernoulli" else 1.0 / (2.0 * (1.0 + poisson_ratio))
+    return voxel_size / math.sqrt(6.0), voxel_size * math.sqrt(shear_ratio / 2.0)
 
 
 def compile_robot(
@@ -162,7 +168,8 @@ def compile_robot(
         raise PhysicsParameterError(
             f"the robot's materials have different Poisson ratios {sorted(ratios)}; bond "
             "geometry needs one ratio per robot")
-    a, b = bond_geometry(ratios.pop(), L)
+    poisson = ratios.pop()
+    a, b = bond_geometry(poisson, L, bond_model=scene.bond_model)
 
     masses = np.array([physics.voxel_mass(m) for _, m in voxels])
     grid_index = np.array([index for index, _ in voxels])
@@ -177,9 +184,16 @@ def compile_robot(
     spec.option.gravity = _mjcf([0.0, 0.0, -scene.gravity])
     spec.option.integrator = {"euler": mujoco.mjtIntegrator.mjINT_EULER,
                               "rk4": mujoco.mjtIntegrator.mjINT_RK4}[scene.integrator]
+    if scene.drag_ratio > 0.0:
+        soft = physics.materials[Material.SOFT]
+        mass = physics.voxel_mass(Material.SOFT)
+        drag = 2.0 * scene.drag_ratio * math.sqrt(mass * soft.youngs_modulus * L)
+        spec.option.viscosity = _mjcf(drag / (3.0 * math.pi * L))  # Stokes: 3πμd, d = L
     if scene.floor:
         spec.worldbody.add_geom(name=FLOOR, type=mujoco.mjtGeom.mjGEOM_PLANE,
                                 size=[0.0, 0.0, L], contype=0, conaffinity=0)
+    spheres = scene.contact_shape == "sphere" or scene.self_collision
+    surface = _surface(grid_index, index_of, dim)
     bodies = []
     for i, ((index, material), centre) in enumerate(zip(voxels, centres)):
         name = "v" + "_".join(str(k) for k in index)
@@ -189,12 +203,26 @@ def compile_robot(
         body.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_BOX, size=_mjcf([L / 2] * 3),
                       mass=_mjcf(masses[i]), contype=0, conaffinity=0)
         bodies.append(body)
+        props = physics.materials[material]
+        solref, solimp = _contact_solver(scene, props, masses[i])
+        contact_geom = name
+        if spheres:
+            # massless, hidden (group 3): the box keeps the cube's mass, inertia and looks
+            contact_geom = "c" + name
+            collide = int(scene.self_collision and surface[i])
+            body.add_geom(name=contact_geom, type=mujoco.mjtGeom.mjGEOM_SPHERE,
+                          size=_mjcf([L / 2, 0.0, 0.0]), mass=0.0, contype=collide,
+                          conaffinity=collide, condim=1, group=3, solref=solref,
+                          solimp=solimp)
+            if scene.contact_shape == "box":
+                contact_geom = name
         if scene.floor and index not in clamped_set:
-            props = physics.materials[material]
-            spec.add_pair(geomname1=FLOOR, geomname2=name, condim=3,
+            spec.add_pair(geomname1=FLOOR, geomname2=contact_geom, condim=3,
                           friction=_mjcf([props.friction, props.friction, 0.0, 0.0, 0.0]),
-                          solref=_mjcf([scene.contact_timeconst, scene.contact_dampratio]),
-                          solimp=_mjcf([0.9, 0.95, scene.contact_width, 0.5, 2.0]))
+                          solref=solref, solimp=solimp)
+    if scene.self_collision:
+        for i, j in _near_pairs(grid_index, index_of):
+            spec.add_exclude(bodyname1=bodies[i].name, bodyname2=bodies[j].name)
 
     bonds = _face_bonds(grid_index, index_of, dim)
     is_muscle = [physics.materials[m].is_muscle for _, m in voxels]
@@ -206,7 +234,8 @@ def compile_robot(
     for i, j, axis in bonds:
         p_i, p_j = physics.materials[voxels[i][1]], physics.materials[voxels[j][1]]
         e_bond = _series(p_i.youngs_modulus, p_j.youngs_modulus)
-        g_bond = _series(p_i.shear_modulus, p_j.shear_modulus)
+        g_bond = (e_bond if scene.bond_model == "euler_bernoulli"
+                  else _series(p_i.shear_modulus, p_j.shear_modulus))
         k_bond = e_bond * L
         max_k_per_m = max(max_k_per_m, k_bond / min(masses[i], masses[j]))
         damping_per_stiffness = (2.0 * scene.bond_damping_ratio
@@ -251,6 +280,51 @@ def _mjcf(values: float | Sequence[float] | np.ndarray) -> float | list[float]:
     if np.ndim(values) == 0:
         return float(f"{float(values):.6g}")
     return [float(f"{float(v):.6g}") for v in values]
+
+
+def _contact_solver(scene, props, mass: float) -> tuple[list[float], list[float]]:
+    """(solref, solimp) of a voxel's contacts.
+
+    Without `contact_stiffness`: the scene's time constant, damping ratio and width. With
+    it: MuJoCo's direct form solref = (−k/m, −c/m), a spring k = contact_stiffness·E·L and a
+    damper c = contact_damping·2 sqrt(m E L) per contact, with a constant impedance 0.99
+    so the contact acts as that spring–damper on the voxel's mass.
+    """
+    if scene.contact_stiffness is None:
+        return (_mjcf([scene.contact_timeconst, scene.contact_dampratio]),
+                _mjcf([0.9, 0.95, scene.contact_width, 0.5, 2.0]))
+    EL = props.youngs_modulus * scene.voxel_size
+    k = scene.contact_stiffness * EL
+    c = scene.contact_damping * 2.0 * math.sqrt(mass * EL)
+    return _mjcf([-k / mass, -c / mass]), _mjcf([0.99, 0.99, scene.contact_width, 0.5, 2.0])
+
+
+def _surface(grid_index: np.ndarray, index_of: dict, dim: int) -> np.ndarray:
+    """(n_voxels,) bool: the voxel misses at least one face neighbour."""
+    out = np.zeros(len(grid_index), dtype=bool)
+    for i, index in enumerate(grid_index):
+        for grid_axis in range(dim):
+            for step in (-1, 1):
+                neighbour = list(int(k) for k in index)
+                neighbour[grid_axis] += step
+                if tuple(neighbour) not in index_of:
+                    out[i] = True
+    return out
+
+
+def _near_pairs(grid_index: np.ndarray, index_of: dict) -> list[tuple[int, int]]:
+    """(i, j), i < j: voxels that are face, edge or corner neighbours (exempt from
+    self-collision: their spheres touch or overlap at rest, and bonds hold them)."""
+    pairs = []
+    dim = grid_index.shape[1]
+    for i, index in enumerate(grid_index):
+        for step in itertools.product((-1, 0, 1), repeat=dim):
+            if not any(step):
+                continue
+            j = index_of.get(tuple(int(k) + d for k, d in zip(index, step)))
+            if j is not None and i < j:
+                pairs.append((i, j))
+    return pairs
 
 
 def _add_joints(body: mujoco.MjsBody, dim: int) -> None:

@@ -3,6 +3,8 @@
 Defaults follow the paper's code (Voxelyze settings, see SEED_CODE_FACTS.md): 1 mm voxels of
 1 g, E = 1e7 Pa (soft and muscle) or 5e7 Pa (hard), Poisson ratio 0.35, gravity 27.468 m/s²
 downwards, 40 Hz actuation with ±14 % linear strain, contract-only, bond damping ratio 1.
+`paper_physics` is the preset closest to the paper engine's reference trajectories
+(docs/fidelity.md); the default keeps box contacts (see there why).
 The time-step safety factor (0.75) is ours: the paper engine's rule (factor 1) is unstable
 for MuJoCo tendon bonds with ζ = 1 (see `Scene`).
 
@@ -13,7 +15,7 @@ Everything here is plain, frozen data validated on construction; MuJoCo appears 
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import asdict, dataclass, field, fields, replace
 from types import MappingProxyType
 from typing import Mapping
 
@@ -22,6 +24,8 @@ from mjregen.grid import Material
 
 WAVEFORMS = ("contract", "symmetric")
 INTEGRATORS = ("euler", "rk4")
+BOND_MODELS = ("timoshenko", "euler_bernoulli")
+CONTACT_SHAPES = ("box", "sphere")
 
 
 class PhysicsParameterError(MjregenError, ValueError):
@@ -54,8 +58,9 @@ class MaterialProperties:
       density: kg/m³ (> 0); a voxel's mass is density × voxel_size³.
       poisson_ratio: ν in [0, 0.5); sets the shear modulus G = E / (2 (1 + ν)).
       friction: Coulomb coefficient against the floor (>= 0). MuJoCo has one coefficient;
-        the default is the paper engine's dynamic friction 0.5, which governs sliding (its
-        static 1.0 only decides when sliding starts).
+        the default is the paper engine's dynamic friction 0.5, which reproduces its slide
+        cases; `paper_physics` uses its static 1.0, with which the robots' feet stick and
+        walk about twice as far (docs/fidelity.md).
       strain_amplitude: muscle linear strain amplitude (0 = passive, < 1); the voxel's
         linear scale is 1 + amplitude × phase_sign × sin(2π f t) (clamped, see `Scene`).
       phase_sign: +1, −1 (counter-phase) or 0 (passive).
@@ -133,6 +138,22 @@ class Scene:
       contact_timeconst: s, MuJoCo solref time constant of voxel–floor contacts.
       contact_dampratio: MuJoCo solref damping ratio of voxel–floor contacts.
       contact_width: m, MuJoCo solimp width (penetration over which the contact stiffens).
+      bond_model: "timoshenko" (a bond's shear stiffness is G·L from the Poisson ratio, so
+        cube-shaped segments add shear compliance to bending) or "euler_bernoulli" (the
+        paper engine's beam bond: transverse stiffness 12EI/L³ = E·L, no shear compliance).
+      drag_ratio: ζ of a drag on every voxel, force −2ζ sqrt(m E_soft L)·v (the paper
+        engine's "slow" global damping, ζ = 0.001); implemented as MuJoCo's viscosity
+        (Stokes drag of each voxel's inertia box), so one coefficient for all materials,
+        set from the soft/muscle modulus. 0 = off.
+      contact_shape: "box" (MuJoCo box–plane contacts, up to 4 corner points per voxel) or
+        "sphere" (one contact per voxel below its centre, radius L/2, like the paper engine:
+        the normal force acts through the centre whatever the voxel's orientation).
+      contact_stiffness: None (use contact_timeconst / dampratio / width) or the floor's
+        penalty stiffness per voxel in units of the voxel's E·L (the paper engine: 2).
+      contact_damping: with contact_stiffness, the floor's damping in units of
+        2 sqrt(m E L) of the voxel (the paper engine's collision damping: 0.8).
+      self_collision: voxels that are not face, edge or corner neighbours in the grid
+        collide with each other as spheres of radius L/2 (the paper engine's self-collision).
     """
 
     voxel_size: float = 1e-3
@@ -148,6 +169,12 @@ class Scene:
     contact_timeconst: float = 3e-4
     contact_dampratio: float = 1.0
     contact_width: float = 1e-5
+    bond_model: str = "timoshenko"
+    drag_ratio: float = 0.0
+    contact_shape: str = "box"
+    contact_stiffness: float | None = None
+    contact_damping: float = 0.8
+    self_collision: bool = False
 
     def __post_init__(self) -> None:
         _check("voxel_size", self.voxel_size, low=0.0)
@@ -162,6 +189,14 @@ class Scene:
         _check("contact_timeconst", self.contact_timeconst, low=0.0)
         _check("contact_dampratio", self.contact_dampratio, low=0.0)
         _check("contact_width", self.contact_width, low=0.0)
+        _check("drag_ratio", self.drag_ratio, low=0.0, low_open=False)
+        if self.contact_stiffness is not None:
+            _check("contact_stiffness", self.contact_stiffness, low=0.0)
+        _check("contact_damping", self.contact_damping, low=0.0, low_open=False)
+        for name, allowed in (("bond_model", BOND_MODELS), ("contact_shape", CONTACT_SHAPES)):
+            if getattr(self, name) not in allowed:
+                raise PhysicsParameterError(
+                    f"{name} must be one of {allowed}, got {getattr(self, name)!r}")
         if self.waveform not in WAVEFORMS:
             raise PhysicsParameterError(
                 f"waveform must be one of {WAVEFORMS}, got {self.waveform!r}")
@@ -169,8 +204,10 @@ class Scene:
             raise PhysicsParameterError(
                 f"integrator must be one of {INTEGRATORS}, got {self.integrator!r} "
                 "(MuJoCo's implicit integrators mis-handle damped tendons between free bodies)")
-        if not isinstance(self.floor, bool):
-            raise PhysicsParameterError(f"floor must be True or False, got {self.floor!r}")
+        for name in ("floor", "self_collision"):
+            if not isinstance(getattr(self, name), bool):
+                raise PhysicsParameterError(
+                    f"{name} must be True or False, got {getattr(self, name)!r}")
 
     def timing(self, dim: int) -> tuple[float, float]:
         """(settle_time, measured_time) in s for a `dim`-dimensional robot."""
@@ -238,3 +275,33 @@ class Physics:
         """
         _check("stiffness_per_mass", stiffness_per_mass, low=0.0)
         return self.scene.timestep_safety * 0.9 / (2.0 * math.pi * math.sqrt(stiffness_per_mass))
+
+
+def paper_physics() -> Physics:
+    """The paper's engine (Voxelyze, evosoro build) as closely as this MuJoCo model allows.
+
+    Measured on its reference cases (docs/fidelity.md):
+    - contacts: one per voxel, a sphere of radius L/2 under the centre (the engine's floor
+      ignores orientation); penalty spring 2·E·L as in the engine; damping 1.2·2 sqrt(mEL)
+      instead of the engine's 0.8 because MuJoCo's contact cannot pull (the engine's
+      damper can), so 0.8 rebounds 6× too high; 1.2 gives the dropped voxel's rebound;
+    - friction 1.0, the engine's static coefficient: MuJoCo has one coefficient, and the
+      robots' feet mostly stick (0.5, the sliding coefficient, reproduces the slide cases
+      but lets the feet slip: the tripod then walks 2× less);
+    - bond damping ratio 0.4: the engine damps half the relative velocity of a bond
+      (ζ = 1 there ≈ 0.5 here); 0.4 reproduces the 3×3×3 block's rebound (restitution 0.35);
+    - the engine's "slow" drag, ζ = 0.001.
+    """
+    materials = {m: replace(p, friction=1.0) for m, p in paper_materials().items()}
+    return Physics(materials=materials, scene=Scene(
+        contact_shape="sphere", contact_stiffness=2.0, contact_damping=1.2,
+        bond_damping_ratio=0.4, drag_ratio=0.001))
+
+
+def legacy_physics() -> Physics:
+    """The physics before the fidelity study (issue #10): box contacts solref (0.3 ms, 1),
+    friction 0.5, bond damping ratio 1, no drag, no self-collision."""
+    materials = {m: replace(p, friction=0.5) for m, p in paper_materials().items()}
+    return Physics(materials=materials, scene=Scene(
+        contact_shape="box", contact_stiffness=None, bond_damping_ratio=1.0, drag_ratio=0.0,
+        self_collision=False))
