@@ -75,3 +75,58 @@ def test_console_entry_point_runs():
     assert result.returncode == 0 and "grow" in result.stdout and "show" in result.stdout
     result = subprocess.run([sys.executable, "-m", "mjregen.cli", "show"], capture_output=True, text=True)
     assert result.returncode == 2 and "Traceback" not in result.stderr
+
+
+WALKER = "assets/robots/bimorph_walker_3d.npy"
+
+
+def test_walk_json_equals_simulate(tmp_path, capsys):
+    from mjregen.physics import Physics
+    from mjregen.simulate import simulate
+
+    csv = tmp_path / "com.csv"
+    assert main(["walk", WALKER, "--settle", "0.01", "--duration", "0.05", "--trajectory", str(csv), "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    expected = simulate(Robot.load(WALKER), physics=Physics().replace_scene(settle_time=0.01), duration=0.05)
+    assert report["distance"] == expected.distance and report["fitness"] == expected.fitness
+    assert report["stable"] and report["steps"] == expected.steps
+    rows = np.loadtxt(csv, delimiter=",", skiprows=1)
+    assert rows.shape == (expected.steps + 1, 4)
+    assert main(["walk", WALKER, "--duration", "0.01", "--trajectory", str(csv)]) == 1  # exists
+    assert "exists" in capsys.readouterr().err
+
+
+def test_export_writes_mjcf_that_plain_mujoco_loads(tmp_path, capsys):
+    import mujoco
+
+    out = tmp_path / "robot.xml"
+    assert main(["export", WALKER, "--out", str(out)]) == 0
+    model = mujoco.MjModel.from_xml_path(str(out))
+    assert model.nbody == 1 + Robot.load(WALKER).n_voxels
+    assert main(["export", WALKER, "--out", str(out)]) == 1
+    assert "exists" in capsys.readouterr().err
+
+
+def test_render_frames(tmp_path, capsys):
+    frames = tmp_path / "frames"
+    assert main(["render", WALKER, "--frames", str(frames), "--settle", "0.005", "--duration", "0.005",
+                 "--width", "64", "--height", "48", "--fps", "10", "--quiet"]) == 0
+    pngs = sorted(frames.glob("*.png"))
+    assert len(pngs) == round(0.01 * 10 * 10) + 1  # sim time x slowdown x fps, + the first
+    from PIL import Image
+
+    assert Image.open(pngs[0]).size == (64, 48)
+    assert main(["render", WALKER, "--out", str(tmp_path / "w.mp4"), "--width", "63"]) == 1
+    assert "even" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("command", [["walk"], ["export", "--out", "{tmp}/x.xml"], ["render", "--out", "{tmp}/x.mp4"]])
+def test_robot_commands_reject_bad_files(tmp_path, capsys, command):
+    np.save(tmp_path / "bad.npy", np.full((5, 5, 5), 9))
+    np.save(tmp_path / "flat.npy", np.zeros(5))
+    for robot, message in [("missing.npy", "not found"), ("bad.npy", "unknown material code 9"),
+                           ("flat.npy", "dimensions")]:
+        args = [command[0], str(tmp_path / robot)] + [a.format(tmp=tmp_path) for a in command[1:]]
+        assert main(args) == 1
+        err = capsys.readouterr().err
+        assert err.startswith("mjregen: error:") and message in err and err.count("\n") == 1

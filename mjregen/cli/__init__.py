@@ -15,8 +15,8 @@ from mjregen.cli import evolution, regeneration, robots
 from mjregen.errors import MjregenError
 
 Handler = Callable[[argparse.Namespace], int]
-COMMANDS = (robots.add_grow, robots.add_show, evolution.add_evolve, evolution.add_evolve_stats,
-            regeneration.add_regen)
+COMMANDS = (robots.add_grow, robots.add_show, robots.add_walk, robots.add_export, robots.add_render,
+            evolution.add_evolve, evolution.add_evolve_stats, regeneration.add_regen)
 
 
 def build_parser() -> argparse.ArgumentParser:

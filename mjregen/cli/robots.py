@@ -94,3 +94,139 @@ def _show(args: argparse.Namespace) -> int:
     else:
         print(robot.to_text())
     return 0
+
+
+def add_walk(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser(
+        "walk",
+        help="simulate a robot walking and print distance and fitness",
+        description="Simulate a robot file (.npy): settle, actuate, measure (the paper's times "
+        "unless --settle/--duration), and print the distance in voxel lengths, the paper's "
+        "fitness and the stability verdict.",
+    )
+    parser.add_argument("robot", type=Path, help="robot file (.npy)")
+    _add_timing(parser)
+    parser.add_argument("--trajectory", type=Path, help="also write the COM trajectory (CSV: t, x, y, z in m)")
+    parser.add_argument("--force", action="store_true", help="overwrite --trajectory if it exists")
+    parser.add_argument("--json", action="store_true", help="print JSON instead of text")
+    parser.set_defaults(handler=_walk)
+
+
+def _add_timing(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--settle", type=float, help="s without actuation first (default: the paper's)")
+    parser.add_argument("--duration", type=float, help="s of walking measured (default: the paper's)")
+
+
+def _physics(args: argparse.Namespace):
+    from mjregen.physics import Physics
+
+    physics = Physics()
+    return physics if args.settle is None else physics.replace_scene(settle_time=args.settle)
+
+
+def _walk(args: argparse.Namespace) -> int:
+    from mjregen.fileio import atomic_open
+    from mjregen.simulate import simulate
+
+    robot = Robot.load(args.robot)
+    if args.trajectory is not None and args.trajectory.exists() and not args.force:
+        raise FileExistsError(f"{args.trajectory} exists; pass --force to replace it")
+    result = simulate(robot, physics=_physics(args), duration=args.duration,
+                      record=args.trajectory is not None)
+    if args.trajectory is not None and result.com is not None:
+        with atomic_open(args.trajectory, "w") as handle:
+            handle.write("t,x,y,z\n")
+            np.savetxt(handle, np.column_stack([result.times, result.com]), delimiter=",", fmt="%.9g")
+    report = {"robot": str(args.robot), "voxels": result.n_voxels, "distance": result.distance,
+              "fitness": result.fitness, "stable": result.stable, "reason": result.reason,
+              "steps": result.steps, "sim_time": result.sim_time, "timestep": result.timestep,
+              "wall_time": result.wall_time, "cpu_time": result.cpu_time}
+    if args.json:
+        print(json.dumps({k: (None if isinstance(v, float) and np.isnan(v) else v) for k, v in report.items()}))
+        return 0
+    verdict = "stable" if result.stable else f"UNSTABLE ({result.reason})"
+    print(f"{args.robot}: {result.n_voxels} voxels, distance {result.distance:.4f} voxel lengths, "
+          f"fitness {result.fitness:.4f}, {verdict}")
+    print(f"{result.steps} steps of {result.timestep:.3g} s ({result.sim_time:.3f} s simulated) "
+          f"in {result.wall_time:.2f} s wall, {result.cpu_time:.2f} s CPU")
+    return 0
+
+
+def add_export(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser(
+        "export",
+        help="write a robot's MuJoCo model as MJCF XML",
+        description="Compile a robot file (.npy) with the default physics and write MJCF that "
+        "plain MuJoCo loads (mujoco.MjModel.from_xml_path) and that simulates the same. The "
+        "muscles are not in the XML: they are driven by rewriting tendon rest lengths "
+        "(mjregen.simulate.Simulation does it).",
+    )
+    parser.add_argument("robot", type=Path, help="robot file (.npy)")
+    parser.add_argument("--out", type=Path, required=True, help="XML file to write")
+    parser.add_argument("--force", action="store_true", help="overwrite --out if it exists")
+    parser.set_defaults(handler=_export)
+
+
+def _export(args: argparse.Namespace) -> int:
+    from mjregen.compile import compile_robot
+    from mjregen.fileio import atomic_open
+
+    robot = Robot.load(args.robot)
+    if robot.is_empty:
+        raise MjregenError(f"{args.robot} holds an empty robot: nothing to export")
+    xml = compile_robot(robot).to_xml()
+    with atomic_open(args.out, "w", overwrite=args.force) as handle:
+        handle.write(xml)
+    print(f"wrote {args.out} ({robot.n_voxels} voxels)")
+    return 0
+
+
+def add_render(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser(
+        "render",
+        help="render a robot's walk to an .mp4 video or PNG frames",
+        description="Simulate a robot file (.npy) as `walk` does and render it headless "
+        "(EGL, else OSMesa, or MUJOCO_GL when set) to a video (--out walk.mp4) or PNG frames "
+        "(--frames DIR).",
+    )
+    parser.add_argument("robot", type=Path, help="robot file (.npy)")
+    target = parser.add_mutually_exclusive_group(required=True)
+    target.add_argument("--out", type=Path, help=".mp4 file to write")
+    target.add_argument("--frames", type=Path, help="folder for PNG frames")
+    _add_timing(parser)
+    parser.add_argument("--width", type=int, default=480)
+    parser.add_argument("--height", type=int, default=360)
+    parser.add_argument("--fps", type=int, default=30)
+    parser.add_argument("--slowdown", type=float, default=10.0, help="times slower than real time (default 10)")
+    parser.add_argument("--force", action="store_true", help="overwrite existing files")
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    parser.set_defaults(handler=_render)
+
+
+def _render(args: argparse.Namespace) -> int:
+    from mjregen.compile import compile_robot
+    from mjregen.render import View, record_walk, write_frames, write_video
+
+    robot = Robot.load(args.robot)
+    if robot.is_empty:
+        raise MjregenError(f"{args.robot} holds an empty robot: nothing to render")
+    try:
+        view = View(width=args.width, height=args.height)
+    except ValueError as error:
+        raise MjregenError(str(error)) from None
+    compiled = compile_robot(robot, physics=_physics(args))
+    try:
+        walk = record_walk(compiled, duration=args.duration, fps=args.fps, slowdown=args.slowdown)
+    except ValueError as error:
+        raise MjregenError(str(error)) from None
+    if args.out is not None:
+        write_video(compiled, walk.qpos, args.out, fps=args.fps, view=view, overwrite=args.force,
+                    progress=not args.quiet)
+        print(f"wrote {args.out} ({len(walk.qpos)} frames)")
+    else:
+        paths = write_frames(compiled, walk.qpos, args.frames, view=view, overwrite=args.force,
+                             progress=not args.quiet)
+        print(f"wrote {len(paths)} frames to {args.frames}")
+    if not walk.stable:
+        print(f"warning: the simulation became unstable ({walk.reason}); the frames stop there")
+    return 0
