@@ -95,33 +95,35 @@ class _ExecutorBackend(Backend):
         raise NotImplementedError
 
     def map(self, fn: Callable[[T], R], items: Sequence[T]) -> list[Outcome[R]]:
+        """All items in parallel; then the failed ones again, one at a time, so that an item
+        whose evaluation kills its worker cannot take other items down on its retry."""
         results: dict[int, Outcome[R]] = {}
-        pending = list(range(len(items)))
-        errors: dict[int, str] = {}
-        for attempt in range(1, MAX_ATTEMPTS + 1):
-            submitted = {self._pool.submit(fn, items[i]): i for i in pending}
-            pending = []
-            broken = False
-            for future in futures.as_completed(submitted):
-                index = submitted[future]
-                try:
-                    results[index] = Outcome(future.result(), None, attempt)
-                except futures.process.BrokenProcessPool as exc:
-                    broken = True
-                    errors[index] = f"worker process died ({_describe(exc)})"
-                    pending.append(index)
-                except Exception as exc:  # noqa: BLE001 - contained and reported per item
-                    errors[index] = _describe(exc)
-                    pending.append(index)
-            if broken:
-                self._pool.shutdown(wait=True, cancel_futures=True)
-                self._pool = self._make_pool()
-            if not pending:
-                break
-            pending.sort()
-        for index in pending:
-            results[index] = Outcome(None, errors[index], MAX_ATTEMPTS)
+        retry: list[int] = []
+        submitted = {self._pool.submit(fn, item): i for i, item in enumerate(items)}
+        broken = False
+        for future in futures.as_completed(submitted):
+            try:
+                results[submitted[future]] = Outcome(future.result(), None, 1)
+            except futures.process.BrokenProcessPool:
+                broken = True
+                retry.append(submitted[future])
+            except Exception:  # noqa: BLE001 - retried below, reported per item
+                retry.append(submitted[future])
+        if broken:
+            self._restart()
+        for index in sorted(retry):
+            try:
+                results[index] = Outcome(self._pool.submit(fn, items[index]).result(), None, MAX_ATTEMPTS)
+            except futures.process.BrokenProcessPool as exc:
+                self._restart()
+                results[index] = Outcome(None, f"worker process died ({_describe(exc)})", MAX_ATTEMPTS)
+            except Exception as exc:  # noqa: BLE001 - contained and reported per item
+                results[index] = Outcome(None, _describe(exc), MAX_ATTEMPTS)
         return [results[i] for i in range(len(items))]
+
+    def _restart(self) -> None:
+        self._pool.shutdown(wait=True, cancel_futures=True)
+        self._pool = self._make_pool()
 
     def close(self) -> None:
         self._pool.shutdown(wait=True, cancel_futures=True)
