@@ -50,10 +50,11 @@ import numpy as np
 
 from mjregen.errors import MjregenError
 from mjregen.grid import Material, Robot
-from mjregen.physics import Physics, PhysicsParameterError
+from mjregen.physics import POINT_RADIUS, Physics, PhysicsParameterError
 
 WORLD_AXES = {2: (0, 2), 3: (0, 1, 2)}  # grid axis -> world axis
 FLOOR = "floor"
+POINT_FLOOR = "floor_centres"  # contact_shape "point": the plane that voxel centres touch
 
 
 class CompileError(MjregenError, ValueError):
@@ -72,11 +73,16 @@ class MuscleTendons:
         each of the bond's voxels in that phase, summed.
       lateral: ``(count,)`` float, m, the tendon's fixed lateral extent d.
       voxel_size: L in m.
+      damping: ``(count,)`` float, N·s/m, the tendons' damping c when the model has one
+        actuator per driven tendon (actuator k on tendon k, gain 1) through which
+        `Simulation` adds c·dl₀/dt, so the damper acts on d(l − l₀)/dt (scene
+        `damp_strain_rate`); None otherwise.
     """
 
     weights: np.ndarray
     lateral: np.ndarray
     voxel_size: float
+    damping: np.ndarray | None = None
 
     @property
     def count(self) -> int:
@@ -189,10 +195,17 @@ def compile_robot(
         mass = physics.voxel_mass(Material.SOFT)
         drag = 2.0 * scene.drag_ratio * math.sqrt(mass * soft.youngs_modulus * L)
         spec.option.viscosity = _mjcf(drag / (3.0 * math.pi * L))  # Stokes: 3πμd, d = L
+    point = scene.contact_shape == "point"
+    floor_geom = FLOOR
     if scene.floor:
         spec.worldbody.add_geom(name=FLOOR, type=mujoco.mjtGeom.mjGEOM_PLANE,
                                 size=[0.0, 0.0, L], contype=0, conaffinity=0)
-    spheres = scene.contact_shape == "sphere" or scene.self_collision
+        if point:
+            # the engine's floor acts on voxel centres lower than L/2: a hidden plane there
+            floor_geom = POINT_FLOOR
+            spec.worldbody.add_geom(name=POINT_FLOOR, type=mujoco.mjtGeom.mjGEOM_PLANE,
+                                    size=[0.0, 0.0, L], contype=0, conaffinity=0, group=3,
+                                    pos=[0.0, 0.0, _mjcf(L / 2 - POINT_RADIUS * L)])
     surface = _surface(grid_index, index_of, dim)
     bodies = []
     for i, ((index, material), centre) in enumerate(zip(voxels, centres)):
@@ -206,18 +219,30 @@ def compile_robot(
         props = physics.materials[material]
         solref, solimp = _contact_solver(scene, props, masses[i])
         contact_geom = name
-        if spheres:
-            # massless, hidden (group 3): the box keeps the cube's mass, inertia and looks
+        collide = int(scene.self_collision and surface[i])
+        # contact geoms are massless and hidden (group 3): the box keeps mass, inertia, looks
+        if scene.contact_shape == "sphere" or (collide and scene.collision_radius == 0.5):
+            # one sphere of radius L/2 serves the floor ("sphere") and self-collision
             contact_geom = "c" + name
-            collide = int(scene.self_collision and surface[i])
             body.add_geom(name=contact_geom, type=mujoco.mjtGeom.mjGEOM_SPHERE,
-                          size=_mjcf([L / 2, 0.0, 0.0]), mass=0.0, contype=collide,
-                          conaffinity=collide, condim=1, group=3, solref=solref,
+                          size=_mjcf([L / 2, 0.0, 0.0]), mass=0.0,
+                          contype=int(collide and scene.collision_radius == 0.5),
+                          conaffinity=int(collide and scene.collision_radius == 0.5),
+                          condim=1, group=3, solref=solref, solimp=solimp)
+        if collide and scene.collision_radius != 0.5:
+            body.add_geom(name="s" + name, type=mujoco.mjtGeom.mjGEOM_SPHERE,
+                          size=_mjcf([scene.collision_radius * L, 0.0, 0.0]), mass=0.0,
+                          contype=1, conaffinity=1, condim=1, group=3, solref=solref,
                           solimp=solimp)
-            if scene.contact_shape == "box":
-                contact_geom = name
+        if scene.contact_shape == "box":
+            contact_geom = name
+        elif point:
+            contact_geom = "p" + name
+            body.add_geom(name=contact_geom, type=mujoco.mjtGeom.mjGEOM_SPHERE,
+                          size=_mjcf([POINT_RADIUS * L, 0.0, 0.0]), mass=0.0, contype=0,
+                          conaffinity=0, group=3)
         if scene.floor and index not in clamped_set:
-            spec.add_pair(geomname1=FLOOR, geomname2=contact_geom, condim=3,
+            spec.add_pair(geomname1=floor_geom, geomname2=contact_geom, condim=3,
                           friction=_mjcf([props.friction, props.friction, 0.0, 0.0, 0.0]),
                           solref=solref, solimp=solimp)
     if scene.self_collision:
@@ -228,7 +253,7 @@ def compile_robot(
     is_muscle = [physics.materials[m].is_muscle for _, m in voxels]
     bonds.sort(key=lambda bond: not (is_muscle[bond[0]] or is_muscle[bond[1]]))
     sites: dict[tuple[int, tuple[float, ...]], str] = {}
-    weights, lateral = [], []
+    weights, lateral, damping = [], [], []
     max_k_per_m = 0.0
     n_tendons = 0
     for i, j, axis in bonds:
@@ -256,15 +281,22 @@ def compile_robot(
             if is_muscle[i] or is_muscle[j]:
                 weights.append(bond_weights)
                 lateral.append(extent)
+                damping.append(tendon.damping[0])
     if not bonds:
         max_k_per_m = max(physics.materials[m].youngs_modulus * L / physics.voxel_mass(m)
                           for m in present)
+    rate_drive = bool(weights) and scene.damp_strain_rate
+    if rate_drive:
+        for k in range(len(weights)):
+            spec.add_actuator(name=f"m{k}", trntype=mujoco.mjtTrn.mjTRN_TENDON, target=f"t{k}",
+                              gainprm=[1.0] + [0.0] * 9)
     spec.option.timestep = _mjcf(physics.timestep(max_k_per_m))
     model = spec.compile()
     muscles = None
     if weights:
         muscles = MuscleTendons(weights=np.array(weights), lateral=np.array(lateral),
-                                voxel_size=L)
+                                voxel_size=L,
+                                damping=np.array(damping) if rate_drive else None)
     return CompiledRobot(
         robot=robot, physics=physics, spec=spec, model=model, voxel_index=grid_index,
         body_ids=np.array([model.body(body.name).id for body in bodies]),

@@ -25,7 +25,8 @@ from mjregen.grid import Material
 WAVEFORMS = ("contract", "symmetric")
 INTEGRATORS = ("euler", "rk4")
 BOND_MODELS = ("timoshenko", "euler_bernoulli")
-CONTACT_SHAPES = ("box", "sphere")
+CONTACT_SHAPES = ("box", "sphere", "point")
+POINT_RADIUS = 1e-6  # contact_shape "point": radius of the centre sphere, in voxel lengths
 
 
 class PhysicsParameterError(MjregenError, ValueError):
@@ -147,13 +148,29 @@ class Scene:
         set from the soft/muscle modulus. 0 = off.
       contact_shape: "box" (MuJoCo box–plane contacts, up to 4 corner points per voxel) or
         "sphere" (one contact per voxel below its centre, radius L/2, like the paper engine:
-        the normal force acts through the centre whatever the voxel's orientation).
+        the normal force acts through the centre whatever the voxel's orientation) or
+        "point" (the paper engine's floor: one contact per voxel at its centre, touching
+        when the centre is lower than L/2, so the normal force and the friction act on the
+        centre and exert no moment; with "sphere" the friction acts at the sphere's bottom,
+        so a voxel whose contact sticks can still roll its centre along). "point" uses a
+        hidden collision plane at height L/2 (minus POINT_RADIUS·L) and a tiny sphere of
+        radius POINT_RADIUS·L at each voxel's centre.
       contact_stiffness: None (use contact_timeconst / dampratio / width) or the floor's
         penalty stiffness per voxel in units of the voxel's E·L (the paper engine: 2).
       contact_damping: with contact_stiffness, the floor's damping in units of
         2 sqrt(m E L) of the voxel (the paper engine's collision damping: 0.8).
       self_collision: voxels that are not face, edge or corner neighbours in the grid
-        collide with each other as spheres of radius L/2 (the paper engine's self-collision).
+        collide with each other as spheres (the paper engine's self-collision).
+      collision_radius: radius of the self-collision spheres in voxel lengths (0.5 = the
+        voxel's half size; the paper engine's collision envelope is 0.625, so its voxels
+        repel from a centre distance of 1.25 L). Face, edge and corner neighbours never
+        collide (their spheres overlap at rest).
+      damp_strain_rate: the bond dampers act on the rate of a bond's deviation from its
+        actuated rest length, d(l − l₀)/dt, as in the paper engine (its bonds damp the change
+        of "length − current rest length"), instead of on dl/dt, which also resists the
+        muscle's own contraction and re-expansion. Implemented exactly: a force c·dl₀/dt
+        along each driven tendon (one MuJoCo actuator per driven tendon, its control
+        written every step by `Simulation`). No effect on robots without muscles.
     """
 
     voxel_size: float = 1e-3
@@ -175,6 +192,8 @@ class Scene:
     contact_stiffness: float | None = None
     contact_damping: float = 0.8
     self_collision: bool = False
+    damp_strain_rate: bool = False
+    collision_radius: float = 0.5
 
     def __post_init__(self) -> None:
         _check("voxel_size", self.voxel_size, low=0.0)
@@ -190,6 +209,8 @@ class Scene:
         _check("contact_dampratio", self.contact_dampratio, low=0.0)
         _check("contact_width", self.contact_width, low=0.0)
         _check("drag_ratio", self.drag_ratio, low=0.0, low_open=False)
+        _check("collision_radius", self.collision_radius, low=0.0, high=math.sqrt(2.0) / 2,
+               high_open=True)
         if self.contact_stiffness is not None:
             _check("contact_stiffness", self.contact_stiffness, low=0.0)
         _check("contact_damping", self.contact_damping, low=0.0, low_open=False)
@@ -204,7 +225,7 @@ class Scene:
             raise PhysicsParameterError(
                 f"integrator must be one of {INTEGRATORS}, got {self.integrator!r} "
                 "(MuJoCo's implicit integrators mis-handle damped tendons between free bodies)")
-        for name in ("floor", "self_collision"):
+        for name in ("floor", "self_collision", "damp_strain_rate"):
             if not isinstance(getattr(self, name), bool):
                 raise PhysicsParameterError(
                     f"{name} must be True or False, got {getattr(self, name)!r}")

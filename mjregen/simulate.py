@@ -92,6 +92,14 @@ class Simulation:
             self._minus = length * muscles.weights[:, 1]
             self._lateral2 = muscles.lateral ** 2
             self._rest = self.model.tendon_lengthspring[: muscles.count]
+            self._rate_drive = muscles.damping is not None
+            if self._rate_drive:
+                if model.nu < muscles.count:
+                    raise ValueError(f"the muscles' damping drive needs {muscles.count} "
+                                     f"actuators on the driven tendons, the model has {model.nu}")
+                self._drive = self.data.ctrl[: muscles.count]
+                self._plus_c = muscles.damping * self._plus
+                self._minus_c = muscles.damping * self._minus
         dof_speed = np.ones(model.nv)  # 1/(m/s) for slides, L/(m/s) for rotations
         dof_speed[model.jnt_dofadr[model.jnt_type == mujoco.mjtJoint.mjJNT_HINGE]] = 0.0
         for adr in model.jnt_dofadr[model.jnt_type == mujoco.mjtJoint.mjJNT_FREE]:
@@ -108,6 +116,17 @@ class Simulation:
             return min(0.0, wave), min(0.0, -wave)
         return wave, -wave
 
+    def strain_rates(self, t: float) -> tuple[float, float]:
+        """Time derivatives (1/s) of `strains` at `t` (one-sided at the clamp's kinks)."""
+        if t < self._start:
+            return 0.0, 0.0
+        omega = 2.0 * math.pi * self._scene.frequency
+        phase = omega * (t - self._start)
+        wave, rate = math.sin(phase), omega * math.cos(phase)
+        if self._scene.waveform == "contract":
+            return (rate if wave < 0.0 else 0.0), (-rate if wave > 0.0 else 0.0)
+        return rate, -rate
+
     def run(self, n_steps: int, *, com: np.ndarray | None = None) -> str:
         """Advance `n_steps` steps; return "" or the reason the state became unstable.
 
@@ -123,7 +142,13 @@ class Simulation:
             if drive:
                 plus, minus = self.strains((self.steps + k) * dt)
                 axial = self._base + self._plus * plus + self._minus * minus
-                self._rest[:] = np.sqrt(axial * axial + self._lateral2)[:, None]
+                rest = np.sqrt(axial * axial + self._lateral2)
+                self._rest[:] = rest[:, None]
+                if self._rate_drive:
+                    # c·dl₀/dt along each driven tendon: its damper then acts on d(l − l₀)/dt
+                    rate_plus, rate_minus = self.strain_rates((self.steps + k + 0.5) * dt)
+                    self._drive[:] = (axial / rest) * (self._plus_c * rate_plus
+                                                       + self._minus_c * rate_minus)
             mujoco.mj_step(model, data)
             if com is not None:
                 com[k] = data.subtree_com[0]

@@ -112,3 +112,27 @@ def test_exported_xml_reproduces_the_trajectory_bit_for_bit(name):
     assert np.array_equal(a, b)
     assert np.array_equal(ours.data.qpos, exported.data.qpos)
     assert np.ptp(a[:, 0]) > 0  # it did move
+
+
+def test_new_contact_and_damping_options_build_the_documented_geoms_and_drives():
+    """"point" contacts: a hidden plane at L/2 and a tiny sphere per voxel; a self-collision
+    radius other than L/2 gets its own sphere; damp_strain_rate one drive per driven tendon."""
+    robot = Robot.load(ROBOTS / "bimorph_walker_3d.npy")
+    physics = Physics().replace_scene(contact_shape="point", self_collision=True,
+                                      collision_radius=0.625, damp_strain_rate=True)
+    compiled = compile_robot(robot, physics=physics)
+    model = compiled.model
+    plane = model.geom("floor_centres")
+    assert model.geom_pos[plane.id][2] == pytest.approx(0.5e-3, abs=2e-9)
+    assert model.npair == robot.n_voxels
+    assert all(model.pair_geom1 == plane.id)
+    assert np.allclose(model.geom_size[model.pair_geom2, 0], 1e-9)
+    collide = model.geom_contype > 0
+    assert collide.any() and np.allclose(model.geom_size[collide, 0], 0.625e-3)
+    assert model.nu == compiled.muscles.count and compiled.muscles.damping is not None
+    assert np.array_equal(compiled.muscles.damping, model.tendon_damping[: model.nu])
+    plain = mujoco.MjModel.from_xml_string(compiled.to_xml())
+    a, b = (Simulation(m, scene=physics.scene, muscles=compiled.muscles, actuation_start=0.0)
+            for m in (model, plain))
+    assert a.run(500) == "" and b.run(500) == ""
+    assert np.array_equal(a.data.qpos, b.data.qpos) and np.any(a.data.ctrl != 0)

@@ -61,6 +61,9 @@ def test_bad_material_raises_naming_the_parameter(kwargs, word):
     (dict(integrator="implicitfast"), "integrator"),
     (dict(contact_timeconst=0.0), "contact_timeconst"),
     (dict(floor=1), "floor"),
+    (dict(contact_shape="capsule"), "contact_shape"),
+    (dict(damp_strain_rate=1), "damp_strain_rate"),
+    (dict(collision_radius=0.75), "collision_radius"),
 ])
 def test_bad_scene_raises_naming_the_parameter(kwargs, word):
     with pytest.raises(PhysicsParameterError, match=word):
