@@ -349,6 +349,7 @@ def markdown(rows: list[dict], fields: list[str]) -> str:
 def plot_work_precision(rows: list[dict], path: Path) -> None:
     """Error (COM and fitness) against CPU time, log–log, one line per integrator."""
     import matplotlib
+    import matplotlib.ticker
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
@@ -379,6 +380,8 @@ def plot_work_precision(rows: list[dict], path: Path) -> None:
             if col == 0:
                 ax.set_ylabel(label, fontsize=8)
             ax.tick_params(labelsize=7)
+            ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
+            ax.yaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
             ax.grid(True, which="major", alpha=0.3)
     axes[0][0].legend(fontsize=7)
     fig.suptitle("Work–precision: settle 0.05 s + 0.1 s walking; ★ = default dt "
