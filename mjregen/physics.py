@@ -292,10 +292,16 @@ class Physics:
         """Time step in s for the stiffest spring present.
 
         The paper engine's rule: dt = safety × 0.9 / (2π sqrt(k/m)), with k/m in s⁻² the
-        largest ratio of a spring's stiffness (N/m) to its voxel's mass (kg).
+        largest ratio of a spring's stiffness (N/m) to its voxel's mass (kg), times
+        min(1, 1/ζ) for the bond damping ratio ζ: damping proportional to stiffness damps the
+        fastest mode ~2.8 ζ, and explicit Euler's stable step then shrinks like 1/ζ (measured:
+        without the factor a 5×5×5 block diverges at ζ ≥ 1.5; docs/accuracy.md).
         """
         _check("stiffness_per_mass", stiffness_per_mass, low=0.0)
-        return self.scene.timestep_safety * 0.9 / (2.0 * math.pi * math.sqrt(stiffness_per_mass))
+        zeta = self.scene.bond_damping_ratio
+        heavy_damping = min(1.0, 1.0 / zeta) if zeta > 0.0 else 1.0
+        return (self.scene.timestep_safety * heavy_damping * 0.9
+                / (2.0 * math.pi * math.sqrt(stiffness_per_mass)))
 
 
 def paper_physics() -> Physics:

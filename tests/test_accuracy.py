@@ -136,8 +136,6 @@ def test_damping_aware_rule_is_stable_at_zeta_2():
     assert evaluate(heavily_damped_block(default * min(1.0, 1 / 2.0)))["stable"]
 
 
-@pytest.mark.xfail(strict=False, reason="the automatic step ignores ζ: at ζ = 2 it must shrink "
-                   "1/ζ (proposed diff in docs/accuracy.md); passes once applied")
 def test_automatic_time_step_is_stable_at_zeta_2():
     assert evaluate(heavily_damped_block())["stable"]
 

@@ -96,3 +96,10 @@ def test_physics_pickles_and_round_trips_through_json():
     del broken["scene"]
     with pytest.raises(PhysicsParameterError, match="invalid physics"):
         Physics.from_dict(broken)
+
+
+def test_timestep_shrinks_with_heavy_bond_damping():
+    base = Physics()
+    k_per_m = 5e7 * 1e-3 / 1e-3
+    assert Physics().replace_scene(bond_damping_ratio=2.0).timestep(k_per_m) == pytest.approx(base.timestep(k_per_m) / 2)
+    assert Physics().replace_scene(bond_damping_ratio=0.4).timestep(k_per_m) == base.timestep(k_per_m)
