@@ -42,7 +42,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Iterable, Sequence
 
 import mujoco
@@ -90,37 +90,110 @@ class MuscleTendons:
 
 
 @dataclass(frozen=True)
+class BondTable:
+    """Every bond tendon of a robot as arrays (the native bond backend's input).
+
+    Values are the ones the tendon model gets (rounded like MJCF), so both backends compute
+    the same forces. Driven tendons (`MuscleTendons`) are rows ``0 .. muscles.count-1``.
+
+    Attributes:
+      ends: ``(n, 2)`` int, the voxels (body order) of the tendon's two sites.
+      offsets: ``(n, 2, 3)`` float, m, the sites' positions in their voxels' frames.
+      stiffness: ``(n,)`` N/m.
+      damping: ``(n,)`` N·s/m.
+      rest: ``(n,)`` m, the rest length without actuation.
+    """
+
+    ends: np.ndarray
+    offsets: np.ndarray
+    stiffness: np.ndarray
+    damping: np.ndarray
+    rest: np.ndarray
+
+    @property
+    def count(self) -> int:
+        return len(self.stiffness)
+
+
+@dataclass(frozen=True)
 class CompiledRobot:
     """A robot compiled to MuJoCo.
 
     Attributes:
       robot, physics: what was compiled.
-      spec: the `mujoco.MjSpec` (owns the model's source).
-      model: the compiled `mujoco.MjModel`.
+      spec: the `mujoco.MjSpec` of the tendon model (owns the exported MJCF).
+      model: the compiled tendon model `mujoco.MjModel` (bonds as spatial tendons).
       voxel_index: ``(n_voxels, dim)`` int grid indices, in body order.
-      body_ids: ``(n_voxels,)`` int MuJoCo body ids of the voxels.
+      body_ids: ``(n_voxels,)`` int MuJoCo body ids of the voxels (same in both models).
       masses: ``(n_voxels,)`` float, kg.
       muscles: the driven tendons, or None when the robot has no muscles.
       n_bonds: number of face bonds.
+      bonds: every bond tendon as arrays (`BondTable`).
+      bond_backend: "tendon" or "native", the backend `simulation_of` uses (the scene's
+        `bond_backend` resolved).
+      native_model: with the native backend, the model that `simulation_of` steps: the same
+        bodies, joints and contacts without sites, tendons or actuators (bond forces come
+        from `mjregen.bonds_native`); None with the tendon backend.
+
+    With the native backend the tendon `spec` and `model` are built on first access.
     """
 
     robot: Robot
     physics: Physics
-    spec: mujoco.MjSpec
-    model: mujoco.MjModel
     voxel_index: np.ndarray
     body_ids: np.ndarray
     masses: np.ndarray
     muscles: MuscleTendons | None
     n_bonds: int
+    bonds: BondTable
+    bond_backend: str = "tendon"
+    native_model: mujoco.MjModel | None = None
+    _tendon: dict = field(default_factory=dict, repr=False, compare=False)
+
+    @property
+    def spec(self) -> mujoco.MjSpec:
+        return self._tendon_model()[0]
+
+    @property
+    def model(self) -> mujoco.MjModel:
+        return self._tendon_model()[1]
+
+    def _tendon_model(self) -> tuple[mujoco.MjSpec, mujoco.MjModel]:
+        if "model" not in self._tendon:
+            build = self._tendon.pop("build")
+            self._tendon["spec"], self._tendon["model"] = build()
+        return self._tendon["spec"], self._tendon["model"]
+
+    @property
+    def simulation_model(self) -> mujoco.MjModel:
+        """The model `simulation_of` steps: `native_model`, or the tendon `model`."""
+        return self.native_model if self.native_model is not None else self.model
 
     @property
     def timestep(self) -> float:
-        return float(self.model.opt.timestep)
+        return float(self.simulation_model.opt.timestep)
 
     def to_xml(self) -> str:
-        """MJCF text that plain `mujoco.MjModel.from_xml_string` loads into the same model."""
+        """MJCF text that plain `mujoco.MjModel.from_xml_string` loads into the same model
+        (the tendon model, whatever the backend)."""
         return self.spec.to_xml()
+
+
+def resolve_bond_backend(scene) -> str:
+    """"tendon" or "native" for a scene's `bond_backend` ("auto": native when the library
+    builds here and the integrator is Euler, else tendon).
+
+    Raises:
+      NativeBuildError: "native" asked for and the library cannot be built.
+    """
+    if scene.bond_backend == "tendon":
+        return "tendon"
+    from mjregen import bonds_native
+
+    if scene.bond_backend == "native":
+        bonds_native._load()
+        return "native"
+    return "native" if scene.integrator == "euler" and bonds_native.available() else "tendon"
 
 
 def bond_geometry(poisson_ratio: float, voxel_size: float, *,
@@ -140,6 +213,7 @@ def compile_robot(
     physics: Physics | None = None,
     clamped: Iterable[Sequence[int]] = (),
     elevation: float = 0.0,
+    _backend: str | None = None,
 ) -> CompiledRobot:
     """Build the MuJoCo model of `robot`.
 
@@ -151,6 +225,7 @@ def compile_robot(
     Raises:
       CompileError: empty robot, a clamped index that is not a voxel, negative elevation.
       PhysicsParameterError: the robot's materials have different Poisson ratios.
+      NativeBuildError: the scene asks for bond_backend "native" and it cannot be built.
     """
     physics = Physics() if physics is None else physics
     if not isinstance(robot, Robot):
@@ -175,6 +250,8 @@ def compile_robot(
             f"the robot's materials have different Poisson ratios {sorted(ratios)}; bond "
             "geometry needs one ratio per robot")
     poisson = ratios.pop()
+    backend = _backend or resolve_bond_backend(scene)
+    tendons = backend == "tendon"
     a, b = bond_geometry(poisson, L, bond_model=scene.bond_model)
 
     masses = np.array([physics.voxel_mass(m) for _, m in voxels])
@@ -253,9 +330,9 @@ def compile_robot(
     is_muscle = [physics.materials[m].is_muscle for _, m in voxels]
     bonds.sort(key=lambda bond: not (is_muscle[bond[0]] or is_muscle[bond[1]]))
     sites: dict[tuple[int, tuple[float, ...]], str] = {}
-    weights, lateral, damping = [], [], []
+    weights, lateral = [], []
+    ends, offsets, stiffnesses, dampings, rests = [], [], [], [], []
     max_k_per_m = 0.0
-    n_tendons = 0
     for i, j, axis in bonds:
         p_i, p_j = physics.materials[voxels[i][1]], physics.materials[voxels[j][1]]
         e_bond = _series(p_i.youngs_modulus, p_j.youngs_modulus)
@@ -270,37 +347,58 @@ def compile_robot(
             if props.is_muscle:
                 bond_weights[0 if props.phase_sign > 0 else 1] += 0.5 * props.strain_amplitude
         for offset_i, offset_j, stiffness in _bond_tendons(axis, dim, L, a, b, e_bond, g_bond):
-            tendon = spec.add_tendon(name=f"t{n_tendons}")
-            n_tendons += 1
-            tendon.wrap_site(_site(bodies[i], i, offset_i, sites))
-            tendon.wrap_site(_site(bodies[j], j, offset_j, sites))
-            extent = float(np.linalg.norm(np.subtract(_mjcf(offset_j), _mjcf(offset_i))))
-            tendon.stiffness = _mjcf([stiffness, 0.0, 0.0])
-            tendon.damping = _mjcf([stiffness * damping_per_stiffness, 0.0, 0.0])
-            tendon.springlength = _mjcf([math.sqrt(L * L + extent * extent)] * 2)
+            site_i, site_j = _mjcf(offset_i), _mjcf(offset_j)
+            extent = float(np.linalg.norm(np.subtract(site_j, site_i)))
+            k_tendon = _mjcf(stiffness)
+            c_tendon = _mjcf(stiffness * damping_per_stiffness)
+            rest = _mjcf(math.sqrt(L * L + extent * extent))
+            if tendons:
+                tendon = spec.add_tendon(name=f"t{len(stiffnesses)}")
+                tendon.wrap_site(_site(bodies[i], i, offset_i, sites))
+                tendon.wrap_site(_site(bodies[j], j, offset_j, sites))
+                tendon.stiffness = [k_tendon, 0.0, 0.0]
+                tendon.damping = [c_tendon, 0.0, 0.0]
+                tendon.springlength = [rest, rest]
+            ends.append((i, j))
+            offsets.append((site_i, site_j))
+            stiffnesses.append(k_tendon)
+            dampings.append(c_tendon)
+            rests.append(rest)
             if is_muscle[i] or is_muscle[j]:
                 weights.append(bond_weights)
                 lateral.append(extent)
-                damping.append(tendon.damping[0])
     if not bonds:
         max_k_per_m = max(physics.materials[m].youngs_modulus * L / physics.voxel_mass(m)
                           for m in present)
     rate_drive = bool(weights) and scene.damp_strain_rate
-    if rate_drive:
+    if rate_drive and tendons:
         for k in range(len(weights)):
             spec.add_actuator(name=f"m{k}", trntype=mujoco.mjtTrn.mjTRN_TENDON, target=f"t{k}",
                               gainprm=[1.0] + [0.0] * 9)
     spec.option.timestep = _mjcf(physics.timestep(max_k_per_m))
     model = spec.compile()
+    table = BondTable(ends=np.array(ends, dtype=int).reshape(-1, 2),
+                      offsets=np.array(offsets, dtype=float).reshape(-1, 2, 3),
+                      stiffness=np.array(stiffnesses, dtype=float),
+                      damping=np.array(dampings, dtype=float), rest=np.array(rests, dtype=float))
     muscles = None
     if weights:
         muscles = MuscleTendons(weights=np.array(weights), lateral=np.array(lateral),
                                 voxel_size=L,
-                                damping=np.array(damping) if rate_drive else None)
+                                damping=table.damping[: len(weights)].copy() if rate_drive
+                                else None)
+    lazy: dict = {"spec": spec, "model": model}
+    if not tendons:
+        def build_tendon_model() -> tuple[mujoco.MjSpec, mujoco.MjModel]:
+            tendon = compile_robot(robot, physics=physics, clamped=clamped_set,
+                                   elevation=elevation, _backend="tendon")
+            return tendon.spec, tendon.model
+        lazy = {"build": build_tendon_model}
     return CompiledRobot(
-        robot=robot, physics=physics, spec=spec, model=model, voxel_index=grid_index,
+        robot=robot, physics=physics, voxel_index=grid_index,
         body_ids=np.array([model.body(body.name).id for body in bodies]),
-        masses=masses, muscles=muscles, n_bonds=len(bonds))
+        masses=masses, muscles=muscles, n_bonds=len(bonds), bonds=table,
+        bond_backend=backend, native_model=None if tendons else model, _tendon=lazy)
 
 
 def _mjcf(values: float | Sequence[float] | np.ndarray) -> float | list[float]:

@@ -2,8 +2,11 @@
 
 `simulate(robot)` compiles the robot (`mjregen.compile`), lets it settle without actuation
 for the scene's settle time, then drives the muscles for the measured time and returns a
-`Result`. The hot loop is `mujoco.mj_step`; the only per-step Python work is writing the
-driven tendons' rest lengths (one vector expression) when the robot has muscles.
+`Result`. The hot loop is `mujoco.mj_step`. With the native bond backend (the default where
+a C compiler exists, `Scene.bond_backend`) bond forces and the muscle drive are computed in
+C inside MuJoCo's step, so `Simulation.run` calls ``mj_step(nstep=CHECK_EVERY)`` between
+stability checks and runs no Python per step. With the tendon backend the only per-step
+Python work is writing the driven tendons' rest lengths when the robot has muscles.
 """
 
 from __future__ import annotations
@@ -16,7 +19,7 @@ import mujoco
 import numpy as np
 from numpy.typing import ArrayLike
 
-from mjregen.compile import CompiledRobot, MuscleTendons, compile_robot
+from mjregen.compile import BondTable, CompiledRobot, MuscleTendons, compile_robot
 from mjregen.grid import Robot
 from mjregen.physics import Physics, PhysicsParameterError, Scene
 
@@ -70,22 +73,46 @@ class Simulation:
     exported XML). It rewrites ``model.tendon_lengthspring`` of the driven tendons, so give
     each `Simulation` its own model.
 
+    With `bonds` (the native backend) the model is `CompiledRobot.native_model` (no
+    tendons): the bond forces and the muscle drive are computed in C for this simulation's
+    `data` (registered until the `Simulation` is garbage-collected), the model is not
+    modified, and `run` steps without Python in the loop.
+
     Args:
       model: the MuJoCo model.
       scene: actuation and timing settings.
       muscles: the driven tendons (None: passive robot).
       actuation_start: s, time at which the muscle waveform starts (phase 0).
+      bonds: the robot's `BondTable` to simulate natively (its `model` must then be the
+        tendon-free `native_model`); None: the model's own tendons carry the bonds.
+      voxel_bodies: with `bonds`, the voxels' body ids (`CompiledRobot.body_ids`).
     """
 
     def __init__(self, model: mujoco.MjModel, *, scene: Scene,
-                 muscles: MuscleTendons | None, actuation_start: float) -> None:
+                 muscles: MuscleTendons | None, actuation_start: float,
+                 bonds: BondTable | None = None,
+                 voxel_bodies: np.ndarray | None = None) -> None:
         self.model = model
         self.data = mujoco.MjData(model)
         self.steps = 0
         self._scene = scene
         self._start = actuation_start
         self._muscles = muscles
-        if muscles is not None:
+        self.native = bonds is not None
+        if self.native:
+            from mjregen.bonds_native import NativeBonds
+
+            if model.ntendon:
+                raise ValueError("native bonds need the tendon-free model "
+                                 "(CompiledRobot.native_model), this one has tendons")
+            if voxel_bodies is None:
+                raise ValueError("native bonds need voxel_bodies (CompiledRobot.body_ids)")
+            dim = 3 if model.jnt_type.size == 0 or mujoco.mjtJoint.mjJNT_FREE in model.jnt_type \
+                else 2
+            NativeBonds(model, bonds, voxel_bodies=np.asarray(voxel_bodies), dim=dim,
+                        muscles=muscles, scene=scene,
+                        actuation_start=actuation_start).attach(self, self.data)
+        elif muscles is not None:
             length = muscles.voxel_size
             self._base = np.full(muscles.count, length)
             self._plus = length * muscles.weights[:, 0]
@@ -137,7 +164,20 @@ class Simulation:
         """
         model, data = self.model, self.data
         dt = model.opt.timestep
-        drive = self._muscles is not None
+        drive = self._muscles is not None and not self.native
+        if com is None and not drive:
+            # nothing to do in Python between checks: MuJoCo steps in C
+            done = 0
+            while done < n_steps:
+                chunk = min(CHECK_EVERY, n_steps - done)
+                mujoco.mj_step(model, data, nstep=chunk)
+                done += chunk
+                reason = self.check()
+                if reason:
+                    self.steps += done
+                    return reason
+            self.steps += n_steps
+            return ""
         for k in range(n_steps):
             if drive:
                 plus, minus = self.strains((self.steps + k) * dt)
@@ -183,6 +223,10 @@ def simulation_of(compiled: CompiledRobot) -> Simulation:
     """A `Simulation` of a compiled robot with actuation after the scene's settle time."""
     scene = compiled.physics.scene
     settle, _ = scene.timing(compiled.robot.dim)
+    if compiled.native_model is not None:
+        return Simulation(compiled.native_model, scene=scene, muscles=compiled.muscles,
+                          actuation_start=settle, bonds=compiled.bonds,
+                          voxel_bodies=compiled.body_ids)
     return Simulation(compiled.model, scene=scene, muscles=compiled.muscles,
                       actuation_start=settle)
 

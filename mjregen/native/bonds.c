@@ -1,0 +1,304 @@
+/* mjregen native bond forces: every bond tendon of a robot in one tight loop.
+
+   Reproduces the spatial tendons of `mjregen.compile` (site-to-site springs with
+   stiffness-proportional dampers, muscle-driven rest lengths, optional strain-rate drive)
+   as forces added to qfrc_passive from MuJoCo's passive-force callback, on a model that has
+   the same bodies but no sites or tendons. MuJoCo keeps bodies, contacts and integration.
+
+   State is per mjData: `mjr_register(d, bonds)` before stepping, `mjr_unregister(d)` after;
+   the callback does nothing for an unregistered mjData (so other models are unaffected).
+   Only struct fields of mjModel/mjData are read (no MuJoCo function is called), so this file
+   compiles against the installed wheel's headers and needs no link to libmujoco.
+*/
+#include <math.h>
+#include <pthread.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <mujoco/mujoco.h>
+
+typedef struct {
+  int dim;              /* 2 or 3 */
+  int nvox;
+  int nten;
+  int nmus;             /* driven tendons: 0 .. nmus-1 */
+  int contract;         /* waveform "contract" (1) or "symmetric" (0) */
+  int rate_drive;       /* add c dl0/dt along driven tendons (damp_strain_rate) */
+  double voxel_size;    /* L, m */
+  double start;         /* s, actuation start */
+  double omega;         /* rad/s */
+  double dt;            /* s, the model's time step */
+  const int* qadr;      /* (nvox) first qpos address of the voxel's joint, -1 clamped */
+  const int* vadr;      /* (nvox) first dof address, -1 clamped */
+  const double* pos0;   /* (nvox, 3) 2D: body position at qpos 0; clamped: fixed position */
+  const int* ends;      /* (nten, 2) voxels of the tendon's two sites */
+  const double* off;    /* (nten, 2, 3) site offsets in the voxels' frames */
+  const double* k;      /* (nten) N/m */
+  const double* c;      /* (nten) N s/m */
+  const double* rest;   /* (nten) m, rest length of undriven tendons */
+  const double* plus;   /* (nmus) L w+ */
+  const double* minus;  /* (nmus) L w- */
+  const double* lat2;   /* (nmus) d^2 */
+  const double* plus_c; /* (nmus) c L w+ (rate drive) */
+  const double* minus_c;/* (nmus) c L w- (rate drive) */
+  double* scratch;      /* (nvox, 24): pos 3, R 9, vel 3, omega 3, force 3, torque 3 */
+} mjrBonds;
+
+typedef struct {
+  const mjData* d;
+  const mjrBonds* b;
+} Entry;
+
+static pthread_mutex_t lock = PTHREAD_MUTEX_INITIALIZER;
+static Entry* table = NULL;
+static int count = 0, capacity = 0;
+
+int mjr_register(const mjData* d, const mjrBonds* b) {
+  int ok = 1;
+  pthread_mutex_lock(&lock);
+  for (int i = 0; i < count; i++) {
+    if (table[i].d == d) {
+      table[i].b = b;
+      pthread_mutex_unlock(&lock);
+      return 1;
+    }
+  }
+  if (count == capacity) {
+    int cap = capacity ? 2 * capacity : 16;
+    Entry* grown = (Entry*)realloc(table, cap * sizeof(Entry));
+    if (!grown) {
+      ok = 0;
+    } else {
+      table = grown;
+      capacity = cap;
+    }
+  }
+  if (ok) {
+    table[count].d = d;
+    table[count].b = b;
+    count++;
+  }
+  pthread_mutex_unlock(&lock);
+  return ok;
+}
+
+void mjr_unregister(const mjData* d) {
+  pthread_mutex_lock(&lock);
+  for (int i = 0; i < count; i++) {
+    if (table[i].d == d) {
+      table[i] = table[count - 1];
+      count--;
+      break;
+    }
+  }
+  pthread_mutex_unlock(&lock);
+}
+
+int mjr_registered(void) {
+  pthread_mutex_lock(&lock);
+  int n = count;
+  pthread_mutex_unlock(&lock);
+  return n;
+}
+
+static const mjrBonds* lookup(const mjData* d) {
+  const mjrBonds* b = NULL;
+  pthread_mutex_lock(&lock);
+  for (int i = 0; i < count; i++) {
+    if (table[i].d == d) {
+      b = table[i].b;
+      break;
+    }
+  }
+  pthread_mutex_unlock(&lock);
+  return b;
+}
+
+/* signed strains (e+, e-) of the two muscle phases at time t */
+static void strains(const mjrBonds* b, double t, double* ep, double* em) {
+  if (t < b->start) {
+    *ep = 0.0;
+    *em = 0.0;
+    return;
+  }
+  double wave = sin(b->omega * (t - b->start));
+  if (b->contract) {
+    *ep = wave < 0.0 ? wave : 0.0;
+    *em = -wave < 0.0 ? -wave : 0.0;
+  } else {
+    *ep = wave;
+    *em = -wave;
+  }
+}
+
+static void strain_rates(const mjrBonds* b, double t, double* rp, double* rm) {
+  if (t < b->start) {
+    *rp = 0.0;
+    *rm = 0.0;
+    return;
+  }
+  double phase = b->omega * (t - b->start);
+  double wave = sin(phase), rate = b->omega * cos(phase);
+  if (b->contract) {
+    *rp = wave < 0.0 ? rate : 0.0;
+    *rm = wave > 0.0 ? -rate : 0.0;
+  } else {
+    *rp = rate;
+    *rm = -rate;
+  }
+}
+
+static inline void cross(const double* a, const double* b, double* out) {
+  out[0] = a[1] * b[2] - a[2] * b[1];
+  out[1] = a[2] * b[0] - a[0] * b[2];
+  out[2] = a[0] * b[1] - a[1] * b[0];
+}
+
+/* frames and velocities of all voxels from qpos/qvel (no MuJoCo kinematics needed) */
+static void voxel_states(const mjrBonds* b, const mjData* d) {
+  for (int v = 0; v < b->nvox; v++) {
+    double* s = b->scratch + 24 * v;
+    double *p = s, *R = s + 3, *vel = s + 12, *w = s + 15;
+    memset(s + 12, 0, 12 * sizeof(double));
+    int qa = b->qadr[v], va = b->vadr[v];
+    if (qa < 0) {
+      memcpy(p, b->pos0 + 3 * v, 3 * sizeof(double));
+      memset(R, 0, 9 * sizeof(double));
+      R[0] = R[4] = R[8] = 1.0;
+      memset(vel, 0, 6 * sizeof(double));
+      continue;
+    }
+    const double* q = d->qpos + qa;
+    const double* qv = d->qvel + va;
+    if (b->dim == 3) {
+      p[0] = q[0];
+      p[1] = q[1];
+      p[2] = q[2];
+      double qw = q[3], qx = q[4], qy = q[5], qz = q[6];
+      double norm = sqrt(qw * qw + qx * qx + qy * qy + qz * qz);
+      if (norm < 1e-15) {  /* MuJoCo's mju_normalize4: degenerate -> identity */
+        qw = 1.0;
+        qx = qy = qz = 0.0;
+      } else {
+        qw /= norm;
+        qx /= norm;
+        qy /= norm;
+        qz /= norm;
+      }
+      /* mju_quat2Mat */
+      double q00 = qw * qw, q01 = qw * qx, q02 = qw * qy, q03 = qw * qz;
+      double q11 = qx * qx, q12 = qx * qy, q13 = qx * qz;
+      double q22 = qy * qy, q23 = qy * qz, q33 = qz * qz;
+      R[0] = q00 + q11 - q22 - q33;
+      R[4] = q00 - q11 + q22 - q33;
+      R[8] = q00 - q11 - q22 + q33;
+      R[1] = 2 * (q12 - q03);
+      R[2] = 2 * (q13 + q02);
+      R[3] = 2 * (q12 + q03);
+      R[5] = 2 * (q23 - q01);
+      R[6] = 2 * (q13 - q02);
+      R[7] = 2 * (q23 + q01);
+      vel[0] = qv[0];
+      vel[1] = qv[1];
+      vel[2] = qv[2];
+      /* free joint: angular velocity in the body frame */
+      w[0] = R[0] * qv[3] + R[1] * qv[4] + R[2] * qv[5];
+      w[1] = R[3] * qv[3] + R[4] * qv[4] + R[5] * qv[5];
+      w[2] = R[6] * qv[3] + R[7] * qv[4] + R[8] * qv[5];
+    } else {
+      /* slide x, slide z, hinge y at the body origin */
+      const double* p0 = b->pos0 + 3 * v;
+      p[0] = p0[0] + q[0];
+      p[1] = p0[1];
+      p[2] = p0[2] + q[1];
+      double half = 0.5 * q[2];
+      double qw = cos(half), qy = sin(half);
+      double q00 = qw * qw, q02 = qw * qy, q22 = qy * qy;
+      memset(R, 0, 9 * sizeof(double));
+      R[0] = q00 - q22;
+      R[4] = q00 + q22;
+      R[8] = q00 - q22;
+      R[2] = 2 * q02;
+      R[6] = -2 * q02;
+      vel[0] = qv[0];
+      vel[1] = 0.0;
+      vel[2] = qv[1];
+      w[0] = 0.0;
+      w[1] = qv[2];
+      w[2] = 0.0;
+    }
+  }
+}
+
+void mjr_passive(const mjModel* m, mjData* d) {
+  (void)m;
+  const mjrBonds* b = lookup(d);
+  if (!b) return;
+  voxel_states(b, d);
+
+  double t = 0.0, ep = 0.0, em = 0.0, rp = 0.0, rm = 0.0;
+  if (b->nmus) {
+    double step = floor(d->time / b->dt + 0.5);
+    t = step * b->dt;
+    strains(b, t, &ep, &em);
+    if (b->rate_drive) strain_rates(b, (step + 0.5) * b->dt, &rp, &rm);
+  }
+
+  for (int n = 0; n < b->nten; n++) {
+    int i = b->ends[2 * n], j = b->ends[2 * n + 1];
+    double* si = b->scratch + 24 * i;
+    double* sj = b->scratch + 24 * j;
+    const double* oi = b->off + 6 * n;
+    const double* oj = oi + 3;
+    const double *Ri = si + 3, *Rj = sj + 3;
+    double ri[3], rj[3], dv[3], vi[3], vj[3], tmp[3];
+    for (int a = 0; a < 3; a++) {
+      ri[a] = Ri[3 * a] * oi[0] + Ri[3 * a + 1] * oi[1] + Ri[3 * a + 2] * oi[2];
+      rj[a] = Rj[3 * a] * oj[0] + Rj[3 * a + 1] * oj[1] + Rj[3 * a + 2] * oj[2];
+    }
+    for (int a = 0; a < 3; a++) dv[a] = (sj[a] + rj[a]) - (si[a] + ri[a]);
+    double len = sqrt(dv[0] * dv[0] + dv[1] * dv[1] + dv[2] * dv[2]);
+    if (len < 1e-15) continue;
+    double u[3] = {dv[0] / len, dv[1] / len, dv[2] / len};
+    cross(si + 15, ri, vi);
+    cross(sj + 15, rj, vj);
+    double rate = 0.0;
+    for (int a = 0; a < 3; a++) rate += u[a] * ((sj[12 + a] + vj[a]) - (si[12 + a] + vi[a]));
+    double rest = b->rest[n], drive = 0.0;
+    if (n < b->nmus) {
+      double axial = b->voxel_size + b->plus[n] * ep + b->minus[n] * em;
+      rest = sqrt(axial * axial + b->lat2[n]);
+      if (b->rate_drive) drive = (axial / rest) * (b->plus_c[n] * rp + b->minus_c[n] * rm);
+    }
+    double f = -b->k[n] * (len - rest) - b->c[n] * rate + drive;
+    double F[3] = {f * u[0], f * u[1], f * u[2]};
+    double *fi = si + 18, *ti = si + 21, *fj = sj + 18, *tj = sj + 21;
+    for (int a = 0; a < 3; a++) {
+      fj[a] += F[a];
+      fi[a] -= F[a];
+    }
+    cross(rj, F, tmp);
+    for (int a = 0; a < 3; a++) tj[a] += tmp[a];
+    cross(ri, F, tmp);
+    for (int a = 0; a < 3; a++) ti[a] -= tmp[a];
+  }
+
+  double* qfrc = d->qfrc_passive;
+  for (int v = 0; v < b->nvox; v++) {
+    int va = b->vadr[v];
+    if (va < 0) continue;
+    const double* s = b->scratch + 24 * v;
+    const double *R = s + 3, *F = s + 18, *T = s + 21;
+    if (b->dim == 3) {
+      qfrc[va] += F[0];
+      qfrc[va + 1] += F[1];
+      qfrc[va + 2] += F[2];
+      /* torque into the body frame: R^T T */
+      for (int a = 0; a < 3; a++) qfrc[va + 3 + a] += R[a] * T[0] + R[3 + a] * T[1] + R[6 + a] * T[2];
+    } else {
+      qfrc[va] += F[0];
+      qfrc[va + 1] += F[2];
+      qfrc[va + 2] += T[1];
+    }
+  }
+}
