@@ -34,6 +34,12 @@ Model, one code path for 2D and 3D:
   `tendon_lengthspring` every step (`MuscleTendons`). The geom boxes keep size L.
 - Contacts: only voxel–floor pairs (all geoms have contype = conaffinity = 0), with the
   scene's solref/solimp set on the pair, so MuJoCo's metre-scale defaults never mix in.
+- Bond backends (`Scene.bond_backend`): "tendon" compiles the tendons above into the
+  model; "native" compiles the same bodies, joints and contact pairs without sites,
+  tendons or actuators (`CompiledRobot.native_model`) and `simulate` adds the very same
+  tendon forces (`CompiledRobot.bonds`, values rounded like the MJCF) from one C loop in
+  MuJoCo's passive callback (`mjregen.bonds_native`); the tendon spec/model, still what
+  `to_xml` exports, is then built on first access.
 - The time step comes from the stiffest bond (k_bond / lighter voxel's mass), or from the
   stiffest voxel's E·L/m when the robot has no bonds (see `Physics.timestep`).
 """
