@@ -2,7 +2,8 @@
 
 For each robot: µs per step, steps, wall and CPU seconds per evaluation (median of
 `--repeats` runs, compile included), and µs per step of bare `mj_step` in C (no Python per
-step, no muscle drive) on the same model, to show the loop's overhead.
+step, no muscle drive) on the same model, to show the loop's overhead. The fuller report
+with both bond backends, paper robots and worker throughput is `benchmarks/speed.py`.
 
     /work/venv/bin/python benchmarks/simulate_speed.py [--repeats 3] [--out speed.json]
 """
