@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import ctypes
 import hashlib
+import logging
 import os
 import shutil
 import subprocess
@@ -106,11 +107,20 @@ def build(path: Path | None = None) -> Path:
     return path
 
 
+_unavailable_logged = False
+
+
 def available() -> bool:
-    """True when the native library is built or can be built here."""
+    """True when the native library is built or can be built here (if not, says why once
+    in the log: "auto" then uses MuJoCo tendons, the same forces, slower)."""
+    global _unavailable_logged
     try:
         _load()
-    except NativeBuildError:
+    except NativeBuildError as error:
+        if not _unavailable_logged:
+            logging.getLogger(__name__).warning(
+                "native bond backend unavailable, using MuJoCo tendons: %s", error)
+            _unavailable_logged = True
         return False
     return True
 

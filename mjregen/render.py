@@ -340,7 +340,7 @@ def record_walk(compiled: CompiledRobot, *, duration: float | None = None, fps: 
 
     The run is the settle time plus `duration` of actuation (the same steps as `simulate`),
     sampled at `walk_frame_count(...)` evenly spaced instants, first and last step included.
-    It runs on a copy of the model.
+    It runs the very `Simulation` that `simulate` runs (`simulation_of`, either bond backend).
 
     Args:
       compiled: the robot.
@@ -350,9 +350,7 @@ def record_walk(compiled: CompiledRobot, *, duration: float | None = None, fps: 
     Raises:
       ValueError: non-positive `fps`, `slowdown` or negative `duration`.
     """
-    import copy
-
-    from mjregen.simulate import Simulation
+    from mjregen.simulate import simulation_of
 
     if isinstance(fps, bool) or not isinstance(fps, int) or fps < 1:
         raise ValueError(f"fps must be a positive integer, got {fps!r}")
@@ -367,8 +365,7 @@ def record_walk(compiled: CompiledRobot, *, duration: float | None = None, fps: 
     n_steps = round(settle / dt) + round(measured / dt)
     n_frames = walk_frame_count(n_steps * dt, fps=fps, slowdown=slowdown)
     frame_steps = np.round(np.linspace(0, n_steps, n_frames)).astype(int)
-    sim = Simulation(copy.copy(compiled.model), scene=scene, muscles=compiled.muscles,
-                     actuation_start=settle)
+    sim = simulation_of(compiled)
     qpos, com, reason = [], [], ""
     for step in frame_steps:
         reason = sim.run(int(step) - sim.steps) if step > sim.steps else ""
