@@ -118,3 +118,13 @@ def test_a_tiny_2d_regrowth_evolution_improves_similarity():
         ga.tell(fitness)
     assert best[-1] > best[0]
     assert all(b >= a for a, b in zip(best, best[1:]))
+
+
+def test_shipped_tripod_regrowth_nca_regrows_the_tripod_exactly():
+    from mjregen.checkpoint import load_nca
+
+    nca, metadata = load_nca("assets/regen/tripod_ff.npz")
+    tripod = Robot.load("assets/robots/paper/tripod.npy")
+    task = RegrowthTask(nca=nca.config, original=tripod.grid, damaged=paper_cut(state_of_robot(tripod, nca.config)))
+    regrown = task.regrow(nca.genome).grids[0]
+    assert np.array_equal(regrown, tripod.grid) and metadata["similarity"] == 729
