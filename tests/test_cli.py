@@ -96,6 +96,16 @@ def test_walk_json_equals_simulate(tmp_path, capsys):
     assert "exists" in capsys.readouterr().err
 
 
+def test_walk_with_the_paper_physics_preset(capsys):
+    from mjregen.physics import paper_physics
+    from mjregen.simulate import simulate
+
+    assert main(["walk", WALKER, "--physics", "paper", "--settle", "0.01", "--duration", "0.03", "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    expected = simulate(Robot.load(WALKER), physics=paper_physics().replace_scene(settle_time=0.01), duration=0.03)
+    assert report["distance"] == expected.distance and report["steps"] == expected.steps
+
+
 def test_export_writes_mjcf_that_plain_mujoco_loads(tmp_path, capsys):
     import mujoco
 

@@ -42,3 +42,31 @@ def add_run_folder_arguments(parser: argparse.ArgumentParser, *, resume_help: st
     folder.add_argument("--resume", action="store_true", help=resume_help)
     folder.add_argument("--force", action="store_true", help="delete --out first")
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
+
+
+PHYSICS = ("default", "paper")
+
+
+def add_physics_choice(parser: argparse.ArgumentParser) -> None:
+    """--physics: the default model or the paper-engine preset."""
+    parser.add_argument("--physics", choices=PHYSICS,
+                        help="'default' (the default), or 'paper': mjregen.physics.paper_physics(), "
+                             "the setting closest to the paper's engine (docs/fidelity.md)")
+    parser.set_defaults(settle=None)
+
+
+def add_physics_arguments(parser: argparse.ArgumentParser) -> None:
+    """--physics (the default model or the paper-engine preset), --settle and --duration."""
+    add_physics_choice(parser)
+    parser.add_argument("--settle", type=float,
+                        help="s without actuation before measuring (default: the paper's, 3D 0.05, 2D 1.0)")
+    parser.add_argument("--duration", type=float,
+                        help="s of walking measured (default: the paper's, 3D 0.5, 2D 0.25)")
+
+
+def physics_from_args(args: argparse.Namespace):
+    """The `Physics` that --physics and --settle describe."""
+    from mjregen.physics import Physics, paper_physics
+
+    physics = paper_physics() if args.physics == "paper" else Physics()
+    return physics if args.settle is None else physics.replace_scene(settle_time=args.settle)

@@ -6,7 +6,8 @@ import argparse
 import json
 from pathlib import Path
 
-from mjregen.cli.common import add_ga_arguments, add_run_folder_arguments, ga_config
+from mjregen.cli.common import (add_ga_arguments, add_physics_arguments, add_run_folder_arguments,
+                                ga_config, physics_from_args)
 from mjregen.errors import MjregenError
 
 
@@ -25,10 +26,7 @@ def add_evolve(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--dim", type=int, choices=(2, 3), help="2D or 3D robots (default 3)")
     parser.add_argument("--net", choices=("ff", "lstm"), help="NCA network (default ff)")
     add_ga_arguments(parser, preset_help="GA preset (default: 2d or 3d by --dim)")
-    parser.add_argument("--settle", type=float,
-                        help="s without actuation before measuring (default: the paper's, 3D 0.05, 2D 1.0)")
-    parser.add_argument("--duration", type=float,
-                        help="s of walking measured (default: the paper's, 3D 0.5, 2D 0.25)")
+    add_physics_arguments(parser)
     parser.add_argument("--seed", type=int, help="seed of the GA (default 0)")
     parser.add_argument("--backend", choices=BACKENDS, default="process",
                         help="where simulations run (default: local processes)")
@@ -43,7 +41,6 @@ def _evolve(args: argparse.Namespace) -> int:
     from mjregen.locomotion import LocomotionTask
     from mjregen.nca import NCAConfig
     from mjregen.parallel import make_backend
-    from mjregen.physics import Physics
     from mjregen.runs import run_evolution
 
     if args.resume:
@@ -51,7 +48,7 @@ def _evolve(args: argparse.Namespace) -> int:
     else:
         dim = args.dim or 3
         ga = ga_config(args, f"{dim}d")
-        physics = Physics() if args.settle is None else Physics().replace_scene(settle_time=args.settle)
+        physics = physics_from_args(args)
         task = LocomotionTask(nca=NCAConfig(dim=dim, kind=args.net or "ff"), physics=physics,
                               duration=args.duration)
         seed = 0 if args.seed is None else args.seed
@@ -92,6 +89,8 @@ def _stored_run(args: argparse.Namespace) -> tuple:
              "sigma": (args.sigma, ga.sigma), "seed": (args.seed, stored["seed"]),
              "duration": (args.duration, task.duration),
              "settle": (args.settle, task.physics.scene.settle_time)}
+    if args.physics is not None and physics_from_args(args).to_dict() != stored["task"]["physics"]:
+        given["physics"] = (args.physics, "other physics")
     conflicts = [f"--{k} {v} (run has {s})" for k, (v, s) in given.items() if v is not None and v != s]
     if conflicts:
         raise MjregenError(f"{args.out} was started with other settings: {', '.join(conflicts)}")

@@ -8,7 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
-from mjregen.cli.common import add_ga_arguments, add_run_folder_arguments, ga_config
+from mjregen.cli.common import (add_ga_arguments, add_physics_arguments, add_run_folder_arguments,
+                                ga_config, physics_from_args)
 from mjregen.errors import MjregenError
 
 PAPER_ROBOTS = Path(__file__).resolve().parents[2] / "assets" / "robots" / "paper"
@@ -33,7 +34,7 @@ def add_regen(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--net", choices=("ff", "lstm"), help="regrowth NCA (default ff)")
     add_ga_arguments(parser, preset_help="GA preset (default: regen, the paper's)")
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--duration", type=float, help="s of walking measured (default: the paper's)")
+    add_physics_arguments(parser)
     add_run_folder_arguments(parser, resume_help="continue the run in --out (same arguments)")
     parser.add_argument("--no-video", action="store_true", help="skip the three videos")
     parser.add_argument("--json", action="store_true", help="print the recovery report as JSON")
@@ -63,10 +64,9 @@ def _regen(args: argparse.Namespace) -> int:
     from mjregen.grid import Robot
     from mjregen.nca import CAState, NCAConfig
     from mjregen.parallel import SerialBackend
-    from mjregen.physics import Physics
     from mjregen.recovery import measure_recovery, write_report
-    from mjregen.regen import RegrowthTask, cut_half_space, paper_cut
     from mjregen.figures import growth_figure
+    from mjregen.regen import RegrowthTask, cut_half_space, paper_cut
     from mjregen.runs import run_evolution
 
     original, state, source = _original(args)
@@ -97,7 +97,7 @@ def _regen(args: argparse.Namespace) -> int:
                   titles=[f"regrowth step {i}" for i in range(len(regrowth.states[0]))])
     growth_figure(np.stack([robots[r].grid for r in robots]), args.out / "robots.png", overwrite=True,
                   titles=[f"{role}: {robot.n_voxels} voxels" for role, robot in robots.items()])
-    physics = Physics()
+    physics = physics_from_args(args)
     report = measure_recovery(robots, physics=physics, duration=args.duration)
     name = args.paper or Path(source).stem
     write_report(report, args.out, name=name)

@@ -8,7 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
-from mjregen.cli.common import material_counts
+from mjregen.cli.common import (add_physics_arguments, add_physics_choice, material_counts,
+                                physics_from_args)
 from mjregen.errors import MjregenError
 from mjregen.grid import Robot
 
@@ -105,23 +106,11 @@ def add_walk(subparsers: argparse._SubParsersAction) -> None:
         "fitness and the stability verdict.",
     )
     parser.add_argument("robot", type=Path, help="robot file (.npy)")
-    _add_timing(parser)
+    add_physics_arguments(parser)
     parser.add_argument("--trajectory", type=Path, help="also write the COM trajectory (CSV: t, x, y, z in m)")
     parser.add_argument("--force", action="store_true", help="overwrite --trajectory if it exists")
     parser.add_argument("--json", action="store_true", help="print JSON instead of text")
     parser.set_defaults(handler=_walk)
-
-
-def _add_timing(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--settle", type=float, help="s without actuation first (default: the paper's)")
-    parser.add_argument("--duration", type=float, help="s of walking measured (default: the paper's)")
-
-
-def _physics(args: argparse.Namespace):
-    from mjregen.physics import Physics
-
-    physics = Physics()
-    return physics if args.settle is None else physics.replace_scene(settle_time=args.settle)
 
 
 def _walk(args: argparse.Namespace) -> int:
@@ -131,7 +120,7 @@ def _walk(args: argparse.Namespace) -> int:
     robot = Robot.load(args.robot)
     if args.trajectory is not None and args.trajectory.exists() and not args.force:
         raise FileExistsError(f"{args.trajectory} exists; pass --force to replace it")
-    result = simulate(robot, physics=_physics(args), duration=args.duration,
+    result = simulate(robot, physics=physics_from_args(args), duration=args.duration,
                       record=args.trajectory is not None)
     if args.trajectory is not None and result.com is not None:
         with atomic_open(args.trajectory, "w") as handle:
@@ -162,6 +151,7 @@ def add_export(subparsers: argparse._SubParsersAction) -> None:
         "(mjregen.simulate.Simulation does it).",
     )
     parser.add_argument("robot", type=Path, help="robot file (.npy)")
+    add_physics_choice(parser)
     parser.add_argument("--out", type=Path, required=True, help="XML file to write")
     parser.add_argument("--force", action="store_true", help="overwrite --out if it exists")
     parser.set_defaults(handler=_export)
@@ -174,7 +164,7 @@ def _export(args: argparse.Namespace) -> int:
     robot = Robot.load(args.robot)
     if robot.is_empty:
         raise MjregenError(f"{args.robot} holds an empty robot: nothing to export")
-    xml = compile_robot(robot).to_xml()
+    xml = compile_robot(robot, physics=physics_from_args(args)).to_xml()
     with atomic_open(args.out, "w", overwrite=args.force) as handle:
         handle.write(xml)
     print(f"wrote {args.out} ({robot.n_voxels} voxels)")
@@ -193,7 +183,7 @@ def add_render(subparsers: argparse._SubParsersAction) -> None:
     target = parser.add_mutually_exclusive_group(required=True)
     target.add_argument("--out", type=Path, help=".mp4 file to write")
     target.add_argument("--frames", type=Path, help="folder for PNG frames")
-    _add_timing(parser)
+    add_physics_arguments(parser)
     parser.add_argument("--width", type=int, default=480)
     parser.add_argument("--height", type=int, default=360)
     parser.add_argument("--fps", type=int, default=30)
@@ -214,7 +204,7 @@ def _render(args: argparse.Namespace) -> int:
         view = View(width=args.width, height=args.height)
     except ValueError as error:
         raise MjregenError(str(error)) from None
-    compiled = compile_robot(robot, physics=_physics(args))
+    compiled = compile_robot(robot, physics=physics_from_args(args))
     try:
         walk = record_walk(compiled, duration=args.duration, fps=args.fps, slowdown=args.slowdown)
     except ValueError as error:
