@@ -1,0 +1,575 @@
+"""The paper's experiments in one place: what is run, at which scale, into which folders.
+
+Evolution conditions (`CONDITIONS`): 2D and 3D robots, each grown by a feed-forward
+("ff") and an LSTM ("lstm") NCA, with the paper's GA (`mjregen.evolve.PRESETS` "2d"/"3d"),
+its fitness (`mjregen.locomotion.LocomotionTask`) and its run counts (10 runs in 2D, 24 in
+3D). The regrowth experiment: three diverse evolved 3D walkers (`pick_walkers`), the
+paper's cut (`mjregen.regen.paper_cut`, grid x-indices 0-3 of 9 removed), a regrowth NCA
+evolved with the paper's regeneration GA (`PRESETS["regen"]`), then the locomotion
+recovery of the original, damaged and regrown robot (`mjregen.recovery`).
+
+A `Scale` says how much of that is run: "paper" is the paper's, "quick" a named reduced
+scale that fits about an hour on two cores, "smoke" seconds of work for tests. Every number
+can be overridden (`evolution_jobs`). Run folders (each a `mjregen.runs` folder)::
+
+    <root>/<condition>/seed_<n>             evolutions, e.g. runs/results/3d_ff/seed_0
+    <root>/walkers/walker_<i>.{npz,npy}     the three picked 3D walkers, walkers.json
+    <root>/regen_<walker>_<net>/seed_<n>    regrowth runs, with recovery.json/.md
+
+An evolution here writes exactly the folder that the printed `mjregen evolve` command
+writes (same config.json), so either can resume the other.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import shlex
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from mjregen.errors import MjregenError
+from mjregen.evolve import PRESETS, GAConfig
+from mjregen.fileio import atomic_open
+from mjregen.grid import Material, Robot
+from mjregen.nca import NCAConfig
+from mjregen.physics import Physics
+
+DEFAULT_ROOT = Path("runs") / "results"
+NETS = ("ff", "lstm")
+# Rough CPU-s per evaluation on the development machine (default physics): 2D robots ~1 s;
+# 3D robots 3-10 s, but random 3D NCAs often grow full 343-voxel blocks (~20 s).
+CPU_PER_EVALUATION = {2: 1.0, 3: 10.0}
+
+
+@dataclass(frozen=True)
+class Condition:
+    """One evolution condition of the paper.
+
+    Attributes:
+      name: folder name, "<dim>d_<kind>" (e.g. "3d_ff").
+      dim: 2 or 3.
+      kind: "ff" or "lstm".
+      preset: the paper's GA preset (a key of `mjregen.evolve.PRESETS`).
+      paper_runs: independent runs in the paper (2D 10, 3D 24).
+    """
+
+    name: str
+    dim: int
+    kind: str
+    preset: str
+    paper_runs: int
+
+    @property
+    def nca(self) -> NCAConfig:
+        return NCAConfig(dim=self.dim, kind=self.kind)
+
+    @property
+    def paper_ga(self) -> GAConfig:
+        return PRESETS[self.preset]
+
+
+CONDITIONS: dict[str, Condition] = {
+    f"{dim}d_{kind}": Condition(f"{dim}d_{kind}", dim, kind, f"{dim}d", 10 if dim == 2 else 24)
+    for dim in (2, 3) for kind in NETS
+}
+
+
+@dataclass(frozen=True)
+class Scale:
+    """How much of the experiments is run.
+
+    Attributes:
+      name: "paper", "quick" or "smoke".
+      description: one line for documents.
+      population, generations, runs: per dimension (2, 3).
+      regen_population, regen_generations: the regrowth GA; truncation and elites keep the
+        regen preset's proportions (20 % each).
+      regen_runs: regrowth runs per walker and network.
+      regen_nets: regrowth NCA networks per walker; None = the walker's own (the paper
+        trained both and found the walker's own network best for all three robots).
+      settle, measured: s per dimension; None = the paper's (3D 0.05 + 0.5, 2D 1.0 + 0.25).
+    """
+
+    name: str
+    description: str
+    population: dict[int, int]
+    generations: dict[int, int]
+    runs: dict[int, int]
+    regen_population: int
+    regen_generations: int
+    regen_runs: int = 1
+    regen_nets: tuple[str, ...] | None = None
+    settle: dict[int, float] | None = None
+    measured: dict[int, float] | None = None
+
+    def physics(self, dim: int) -> Physics:
+        """Default physics, with this scale's settle time for `dim` if it has one."""
+        physics = Physics()
+        return physics if self.settle is None else physics.replace_scene(settle_time=self.settle[dim])
+
+    def duration(self, dim: int) -> float | None:
+        """s of walking measured; None = the paper's."""
+        return None if self.measured is None else self.measured[dim]
+
+
+SCALES: dict[str, Scale] = {
+    "paper": Scale(
+        "paper", "the paper's: 2D pop 300 x 500 gens x 10 runs, 3D pop 100 x 300 gens x 24 runs, "
+        "regrowth pop 1000 x 1000 gens with both networks",
+        population={2: 300, 3: 100}, generations={2: 500, 3: 300}, runs={2: 10, 3: 24},
+        regen_population=1000, regen_generations=1000, regen_nets=NETS),
+    "quick": Scale(
+        "quick", "reduced to fit ~1 h on 2 cores: 2D pop 20 x 10 gens x 3 runs, 3D pop 10 x 6 gens "
+        "x 3 runs, regrowth pop 200 x 100 gens with the walker's own network",
+        population={2: 20, 3: 10}, generations={2: 10, 3: 6}, runs={2: 3, 3: 3},
+        regen_population=200, regen_generations=100),
+    "smoke": Scale(
+        "smoke", "seconds of work for tests: pop 4 x 2 gens x 2 runs, 0.01 s settle + 0.02 s walks",
+        population={2: 4, 3: 4}, generations={2: 2, 3: 2}, runs={2: 2, 3: 2},
+        regen_population=8, regen_generations=2,
+        settle={2: 0.01, 3: 0.01}, measured={2: 0.02, 3: 0.02}),
+}
+
+
+def scaled_ga(preset: GAConfig, population: int, generations: int) -> GAConfig:
+    """`preset` at another population and length: truncation and elites keep their share of
+    the population (at least 1 when the preset has any); sigma and init_std unchanged."""
+    def share(count: int) -> int:
+        if count == 0:
+            return 0
+        return min(population, max(1, round(population * count / preset.population)))
+
+    return preset.with_overrides(population=population, generations=generations,
+                                 truncation=share(preset.truncation), elites=share(preset.elites))
+
+
+def task_config(nca: NCAConfig, physics: Physics, duration: float | None) -> dict:
+    """The locomotion task's config.json entry, exactly as `mjregen evolve` writes it."""
+    return {"task": "locomotion", "nca": nca.to_dict(), "physics": physics.to_dict(),
+            "duration": duration}
+
+
+@dataclass(frozen=True)
+class EvolutionJob:
+    """One evolution run: a condition, a seed and its settings."""
+
+    condition: Condition
+    seed: int
+    out: Path
+    ga: GAConfig
+    physics: Physics
+    duration: float | None
+
+    def argv(self, *, workers: int = 1) -> list[str]:
+        """Arguments of the equivalent `mjregen evolve` command."""
+        ga = self.ga
+        args = ["evolve", "--dim", str(self.condition.dim), "--net", self.condition.kind,
+                "--preset", self.condition.preset, "--pop", str(ga.population),
+                "--gens", str(ga.generations), "--truncation", str(ga.truncation),
+                "--elites", str(ga.elites), "--sigma", f"{ga.sigma:g}", "--seed", str(self.seed)]
+        if self.physics.scene.settle_time is not None:
+            args += ["--settle", f"{self.physics.scene.settle_time:g}"]
+        if self.duration is not None:
+            args += ["--duration", f"{self.duration:g}"]
+        backend = ["--backend", "serial"] if workers == 1 else ["--workers", str(workers)]
+        return args + backend + ["--out", str(self.out)]
+
+    def command(self, *, workers: int = 1) -> str:
+        return "mjregen " + shlex.join(self.argv(workers=workers))
+
+    def evaluations(self) -> int:
+        return self.ga.population * self.ga.generations
+
+
+def run_folder(root: str | Path, condition: str, seed: int) -> Path:
+    """``<root>/<condition>/seed_<seed>``."""
+    return Path(root) / condition / f"seed_{seed}"
+
+
+def evolution_jobs(scale: Scale, *, root: str | Path = DEFAULT_ROOT,
+                   conditions: list[str] | None = None, population: int | None = None,
+                   generations: int | None = None, runs: int | None = None,
+                   first_seed: int = 0) -> list[EvolutionJob]:
+    """The evolution runs of `scale` (overrides: None = the scale's), condition by condition.
+
+    Raises:
+      MjregenError: an unknown condition name, or GA numbers the GA rejects.
+    """
+    names = list(CONDITIONS) if conditions is None else list(conditions)
+    unknown = [n for n in names if n not in CONDITIONS]
+    if unknown:
+        raise MjregenError(f"unknown condition(s) {', '.join(unknown)}; choose from "
+                           f"{', '.join(CONDITIONS)}")
+    jobs = []
+    for name in names:
+        condition = CONDITIONS[name]
+        dim = condition.dim
+        try:
+            ga = scaled_ga(condition.paper_ga, population or scale.population[dim],
+                           generations or scale.generations[dim])
+        except ValueError as error:
+            raise MjregenError(f"{name}: {error}") from None
+        for seed in range(first_seed, first_seed + (runs or scale.runs[dim])):
+            jobs.append(EvolutionJob(condition, seed, run_folder(root, name, seed), ga,
+                                     scale.physics(dim), scale.duration(dim)))
+    return jobs
+
+
+def run_evolution_job(job: EvolutionJob, *, workers: int = 1, progress: bool = True):
+    """Run (or resume, or leave alone when finished) one evolution; returns its
+    `mjregen.runs.RunSummary`.
+
+    A folder with a config.json is resumed; its settings must equal the job's.
+
+    Raises:
+      mjregen.runs.RunFolderError: the folder holds a run with other settings.
+    """
+    from mjregen.locomotion import LocomotionTask
+    from mjregen.parallel import make_backend
+    from mjregen.runs import run_evolution
+
+    task = LocomotionTask(nca=job.condition.nca, physics=job.physics, duration=job.duration)
+    backend = make_backend("serial") if workers == 1 else make_backend("process", workers=workers)
+    with backend:
+        return run_evolution(task, job.ga, seed=job.seed, out=job.out, backend=backend,
+                             task_config=task_config(task.nca, task.physics, task.duration),
+                             resume=(job.out / "config.json").is_file(), progress=progress)
+
+
+@dataclass(frozen=True)
+class RunInfo:
+    """What is on disk of one run folder.
+
+    Attributes:
+      path: the run folder.
+      condition: the folder's parent's name (e.g. "3d_ff").
+      seed: the GA seed.
+      config: config.json.
+      generations_done, generations_planned: metrics.csv rows, and the GA's generations.
+      best: per-generation best fitness ``(generations_done,)``.
+      best_fitness: highest best fitness (-inf if no generation is done).
+      best_generation: first generation that reached it (-1 if none).
+    """
+
+    path: Path
+    condition: str
+    seed: int
+    config: dict
+    generations_done: int
+    generations_planned: int
+    best: np.ndarray = field(repr=False)
+    best_fitness: float
+    best_generation: int
+
+    @property
+    def complete(self) -> bool:
+        return self.generations_done >= self.generations_planned
+
+    def best_files(self, generation: int | None = None) -> tuple[Path, Path]:
+        """(NCA ``.npz``, robot ``.npy``) of a generation's best (default: `best_generation`)."""
+        g = self.best_generation if generation is None else generation
+        stem = self.path / "best" / f"gen_{g:04d}"
+        return stem.with_suffix(".npz"), stem.with_suffix(".npy")
+
+
+def read_run(path: str | Path) -> RunInfo:
+    """`RunInfo` of a run folder.
+
+    Raises:
+      FileNotFoundError: no config.json in `path`.
+    """
+    path = Path(path)
+    config = json.loads((path / "config.json").read_text())
+    rows = []
+    if (path / "metrics.csv").is_file():
+        with (path / "metrics.csv").open() as handle:
+            rows = list(csv.DictReader(handle))
+    best = np.array([float(r["best"]) for r in rows])
+    top = int(np.argmax(best)) if len(best) else -1
+    return RunInfo(path=path, condition=path.parent.name, seed=int(config["seed"]), config=config,
+                   generations_done=len(rows), generations_planned=int(config["ga"]["generations"]),
+                   best=best, best_fitness=float(best[top]) if len(best) else -math.inf,
+                   best_generation=top)
+
+
+def list_runs(root: str | Path = DEFAULT_ROOT) -> dict[str, list[RunInfo]]:
+    """Evolution runs under `root` with at least one finished generation, by condition
+    (`CONDITIONS` order, conditions without runs left out), sorted by seed."""
+    found: dict[str, list[RunInfo]] = {}
+    for name in CONDITIONS:
+        runs = []
+        for folder in sorted(Path(root, name).glob("seed_*")):
+            if (folder / "config.json").is_file():
+                info = read_run(folder)
+                if info.generations_done:
+                    runs.append(info)
+        if runs:
+            found[name] = sorted(runs, key=lambda r: r.seed)
+    return found
+
+
+def best_run(runs: list[RunInfo]) -> RunInfo:
+    """The run whose best fitness is highest (ties: lowest seed)."""
+    return max(runs, key=lambda r: (r.best_fitness, -r.seed))
+
+
+# --- picking three diverse walkers ----------------------------------------------------------
+
+DIVERSITY = (
+    "Candidates: every distinct best-of-generation robot of the 3D runs that walked (distance > 0) "
+    "and is one face-connected piece. Pool: the 30 that walked farthest. Features: voxel count; "
+    "fractions of soft, hard, muscle + and muscle - voxels; feet (face-connected pieces of the "
+    "lowest layer); length, width and height in voxels; each standardised over the pool. "
+    "Greedy farthest-point selection: the farthest walker first, then repeatedly the candidate "
+    "farthest (Euclidean, in standardised features) from all walkers already picked.")
+FEATURES = ("voxels", "soft", "hard", "muscle_plus", "muscle_minus", "feet", "length", "width",
+            "height")
+
+
+def pieces(robot: Robot) -> int:
+    """Number of face-connected pieces of the robot."""
+    filled = robot.grid != 0
+    labels = np.zeros(filled.shape, dtype=np.int32)
+    count = 0
+    for start in zip(*np.nonzero(filled)):
+        if labels[start]:
+            continue
+        count += 1
+        labels[start] = count
+        stack = [start]
+        while stack:
+            cell = stack.pop()
+            for axis in range(filled.ndim):
+                for step in (-1, 1):
+                    n = list(cell)
+                    n[axis] += step
+                    n = tuple(n)
+                    if 0 <= n[axis] < filled.shape[axis] and filled[n] and not labels[n]:
+                        labels[n] = count
+                        stack.append(n)
+    return count
+
+
+def morphology(robot: Robot) -> dict[str, float]:
+    """The features `pick_walkers` compares (3D robots).
+
+    voxels: count; soft, hard, muscle_plus, muscle_minus: fractions of the voxels; feet:
+    face-connected pieces of the lowest occupied layer (what stands on the floor before the
+    settle); length, width, height: extent along x, y, z in voxels.
+    """
+    grid = robot.grid
+    occupied = np.argwhere(grid != 0)
+    n = len(occupied)
+    if n == 0:
+        return {name: 0.0 for name in FEATURES}
+    counts = robot.material_counts()
+    low = occupied[:, -1].min()
+    sole = np.zeros_like(grid)
+    sole[..., low] = grid[..., low]
+    extent = occupied.max(axis=0) - occupied.min(axis=0) + 1
+    return {"voxels": float(n),
+            **{m.name.lower(): counts.get(m, 0) / n for m in Material if m != Material.EMPTY},
+            "feet": float(pieces(Robot(sole))),
+            "length": float(extent[0]), "width": float(extent[1]), "height": float(extent[-1])}
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """A generation's best robot of a 3D run: files, the run's measures, its morphology."""
+
+    run: Path
+    condition: str
+    seed: int
+    generation: int
+    fitness: float
+    distance: float
+    robot: Robot = field(repr=False)
+    features: dict[str, float]
+
+    @property
+    def files(self) -> tuple[Path, Path]:
+        stem = self.run / "best" / f"gen_{self.generation:04d}"
+        return stem.with_suffix(".npz"), stem.with_suffix(".npy")
+
+
+def walker_candidates(root: str | Path = DEFAULT_ROOT) -> list[Candidate]:
+    """Every distinct best-of-generation robot of every 3D run under `root` that walked
+    (finite distance > 0) and is one piece; the first occurrence of each grid is kept."""
+    from mjregen.checkpoint import load_nca
+
+    seen: set[bytes] = set()
+    found = []
+    for name, runs in list_runs(root).items():
+        if CONDITIONS[name].dim != 3:
+            continue
+        for run in runs:
+            for generation in range(run.generations_done):
+                npz, npy = run.best_files(generation)
+                if not (npz.is_file() and npy.is_file()):
+                    continue
+                robot = Robot.load(npy)
+                key = robot.grid.tobytes()
+                if key in seen:
+                    continue
+                seen.add(key)
+                metadata = load_nca(npz)[1]
+                distance = float(metadata.get("distance", math.nan))
+                if not (math.isfinite(distance) and distance > 0) or pieces(robot) != 1:
+                    continue
+                found.append(Candidate(run.path, name, run.seed, generation,
+                                       float(metadata["fitness"]), distance, robot,
+                                       morphology(robot)))
+    return found
+
+
+def pick_walkers(candidates: list[Candidate], *, count: int = 3, pool: int = 30) -> list[Candidate]:
+    """Good and diverse walkers: the `pool` candidates that walked farthest, then greedy
+    farthest-point selection in the space of `FEATURES`, each standardised over the pool
+    (z-scores; constant features drop out): the farthest walker first, then repeatedly the
+    candidate whose smallest distance to those already picked is largest (ties: farther
+    walker). Fewer than `count` if there are fewer candidates."""
+    ranked = sorted(candidates, key=lambda c: (-c.distance, c.condition, c.seed, c.generation))
+    ranked = ranked[:pool]
+    if not ranked:
+        return []
+    values = np.array([[c.features[f] for f in FEATURES] for c in ranked])
+    spread = values.std(axis=0)
+    z = (values - values.mean(axis=0)) / np.where(spread > 0, spread, 1.0)
+    picked = [0]
+    while len(picked) < min(count, len(ranked)):
+        gaps = np.min(np.linalg.norm(z[:, None, :] - z[None, picked, :], axis=2), axis=1)
+        gaps[picked] = -1.0
+        picked.append(int(np.argmax(gaps)))  # argmax keeps the first (farther walker) on ties
+    return [ranked[i] for i in picked]
+
+
+def walkers_folder(root: str | Path = DEFAULT_ROOT) -> Path:
+    return Path(root) / "walkers"
+
+
+def load_or_pick_walkers(root: str | Path = DEFAULT_ROOT, *, count: int = 3,
+                         pool: int = 30) -> list[dict]:
+    """The walkers of the regrowth experiment: read ``<root>/walkers/walkers.json``, or pick
+    them (`pick_walkers` over `walker_candidates`) and write it with each walker's NCA and
+    robot as ``walker_<i>.npz/.npy`` beside it. Picked once: later runs reuse the file.
+
+    Returns:
+      One dict per walker: name, npz, npy (paths), source run, condition, seed, generation,
+      fitness, distance, features.
+    Raises:
+      MjregenError: there are no 3D runs with a walking, one-piece robot.
+    """
+    import shutil
+
+    folder = walkers_folder(root)
+    index = folder / "walkers.json"
+    if index.is_file():
+        return json.loads(index.read_text())["walkers"]
+    candidates = walker_candidates(root)
+    chosen = pick_walkers(candidates, count=count, pool=pool)
+    if not chosen:
+        raise MjregenError(f"no 3D run under {root} has a best robot that walks and is one "
+                           "piece; run the 3D evolutions first")
+    folder.mkdir(parents=True, exist_ok=True)
+    walkers = []
+    for i, c in enumerate(chosen, start=1):
+        name = f"walker_{i}"
+        npz, npy = c.files
+        shutil.copyfile(npz, folder / f"{name}.npz")
+        shutil.copyfile(npy, folder / f"{name}.npy")
+        walkers.append({"name": name, "npz": str(folder / f"{name}.npz"),
+                        "npy": str(folder / f"{name}.npy"), "run": str(c.run),
+                        "condition": c.condition, "seed": c.seed, "generation": c.generation,
+                        "fitness": c.fitness, "distance": c.distance, "features": c.features})
+    with atomic_open(index, "w") as handle:
+        json.dump({"diversity": DIVERSITY, "pool": pool, "candidates": len(candidates),
+                   "walkers": walkers}, handle, indent=2)
+    return walkers
+
+
+# --- regrowth ----------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class RegenJob:
+    """One regrowth run: a walker, a regrowth network, a seed and the regen GA."""
+
+    walker: str
+    checkpoint: Path
+    net: str
+    seed: int
+    out: Path
+    ga: GAConfig
+    settle: float | None
+    duration: float | None
+
+    def argv(self) -> list[str]:
+        """Arguments of the equivalent `mjregen regen` command (it writes the same folder)."""
+        ga = self.ga
+        args = ["regen", "--checkpoint", str(self.checkpoint), "--net", self.net,
+                "--pop", str(ga.population), "--gens", str(ga.generations),
+                "--truncation", str(ga.truncation), "--elites", str(ga.elites),
+                "--sigma", f"{ga.sigma:g}", "--seed", str(self.seed)]
+        if self.settle is not None:
+            args += ["--settle", f"{self.settle:g}"]
+        if self.duration is not None:
+            args += ["--duration", f"{self.duration:g}"]
+        return args + ["--no-video", "--out", str(self.out)]
+
+    def command(self) -> str:
+        return "mjregen " + shlex.join(self.argv())
+
+    @property
+    def complete(self) -> bool:
+        """Finished and its recovery measured."""
+        if not (self.out / "recovery.json").is_file():
+            return False
+        return read_run(self.out).complete
+
+
+def regen_folder(root: str | Path, walker: str, net: str, seed: int) -> Path:
+    """``<root>/regen_<walker>_<net>/seed_<seed>``."""
+    return Path(root) / f"regen_{walker}_{net}" / f"seed_{seed}"
+
+
+def regen_jobs(scale: Scale, walkers: list[dict], *, root: str | Path = DEFAULT_ROOT,
+               population: int | None = None, generations: int | None = None,
+               nets: tuple[str, ...] | None = None) -> list[RegenJob]:
+    """The regrowth runs of `scale` for `walkers` (from `load_or_pick_walkers`)."""
+    ga = scaled_ga(PRESETS["regen"], population or scale.regen_population,
+                   generations or scale.regen_generations)
+    jobs = []
+    for walker in walkers:
+        for net in nets or scale.regen_nets or (CONDITIONS[walker["condition"]].kind,):
+            for seed in range(scale.regen_runs):
+                jobs.append(RegenJob(walker["name"], Path(walker["npz"]), net, seed,
+                                     regen_folder(root, walker["name"], net, seed), ga,
+                                     None if scale.settle is None else scale.settle[3],
+                                     scale.duration(3)))
+    return jobs
+
+
+def run_regen_job(job: RegenJob, *, progress: bool = True) -> int:
+    """Run (or resume) one regrowth with `mjregen regen`; 0 on success (then the folder holds
+    recovery.json/.md and original/damaged/regrown.npy). A finished job is left alone."""
+    from mjregen.cli import main
+
+    if job.complete:
+        return 0
+    argv = job.argv() + ([] if progress else ["--quiet"])
+    if (job.out / "config.json").is_file():
+        argv.append("--resume")
+    return main(argv)
+
+
+def list_regen_runs(root: str | Path = DEFAULT_ROOT) -> list[tuple[str, str, Path]]:
+    """(walker, net, folder) of every regrowth run under `root` with a recovery.json."""
+    found = []
+    for folder in sorted(Path(root).glob("regen_*/seed_*")):
+        if (folder / "recovery.json").is_file():
+            walker, _, net = folder.parent.name.removeprefix("regen_").rpartition("_")
+            found.append((walker, net, folder))
+    return found
