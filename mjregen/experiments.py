@@ -147,6 +147,22 @@ def scaled_ga(preset: GAConfig, population: int, generations: int) -> GAConfig:
                                  truncation=share(preset.truncation), elites=share(preset.elites))
 
 
+def scale_of(config: dict) -> str:
+    """Name of the `SCALES` entry a run's config.json matches ("custom" if none): same
+    population, generations and settings of the evaluation (runs per condition not checked)."""
+    task = config.get("task", {})
+    if task.get("task") != "locomotion":
+        return "custom"
+    dim = int(task["nca"]["dim"])
+    for name, scale in SCALES.items():
+        if (config["ga"]["population"] == scale.population[dim]
+                and config["ga"]["generations"] == scale.generations[dim]
+                and task.get("physics") == scale.physics(dim).to_dict()
+                and task.get("duration") == scale.duration(dim)):
+            return name
+    return "custom"
+
+
 def task_config(nca: NCAConfig, physics: Physics, duration: float | None) -> dict:
     """The locomotion task's config.json entry, exactly as `mjregen evolve` writes it."""
     return {"task": "locomotion", "nca": nca.to_dict(), "physics": physics.to_dict(),

@@ -29,8 +29,8 @@ import argparse
 import os
 import sys
 import time
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Sequence
 
 from mjregen import experiments as ex
 from mjregen.errors import MjregenError

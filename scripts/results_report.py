@@ -1,0 +1,487 @@
+#!/usr/bin/env python3
+"""Write docs/results.md and its figures (docs/results/*.png) from the results runs.
+
+Reads the evolution runs under --root (runs/results/<condition>/seed_<n>), the regrowth runs
+(runs/results/regen_<walker>_<net>/seed_<n>, their recovery.json) and the shipped assets
+(assets/nca/manifest.json, assets/robots/walkers/walkers.json), and writes:
+
+  fitness_2d.png, fitness_3d.png   mean best fitness over runs with bootstrapped 95 % CIs,
+                                   feed-forward vs LSTM (`mjregen.stats`)
+  growth_<asset>.png               growth sequence of every shipped NCA
+  gallery_<asset>.png              one rendered frame of every shipped robot (headless)
+  results.md                       settings vs the paper, curves, tables, the regrowth table
+                                   beside the paper's Table 1, measured facts for discussion
+
+It works on whatever exists: a condition without runs gets a "not run" line. The paper's
+Table 1 is parsed from the paper's LaTeX (--paper, default the project's shared copy; a
+verbatim copy of the table in this file otherwise). Prose of your own goes into
+docs/results_discussion.md, which is included verbatim when it exists.
+
+Examples:
+  python scripts/results_report.py
+  python scripts/results_report.py --root runs/results --no-render
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import re
+import subprocess
+import sys
+from collections.abc import Sequence
+from datetime import UTC, datetime
+from pathlib import Path
+
+import numpy as np
+
+from mjregen import experiments as ex
+from mjregen.errors import MjregenError
+
+ROOT = Path(__file__).resolve().parents[1]
+PAPER_GLOB = ROOT.parent / "shared" / "paper"
+# The paper's Table 1, verbatim (used when its LaTeX is not on this machine).
+TABLE_1_LATEX = r"""
+    Morphology (Network) & Similarity & Original & Damaged & Regrown\\
+    \hline
+    Biped (feed forward) & $98\%$ (718/729) & 40.4  & 27.2($67\%$) & 35.1($86\%$) \\
+    Tripod (feed forward) & $99\%$ (728/729) &44.5 & 1.63($3.6\%$) & 20.3($45\%$) \\
+    Multiped (recurrent) &$91\%$ (667/729)& 42.7 & 5.36($12\%$) & 9.6($22\%$) \\
+"""
+_ROW = re.compile(r"^\s*(\w+) \(([\w ]+)\)\s*&\s*\$?([\d.]+)\\%\$?\s*\((\d+)/(\d+)\)\s*&\s*([\d.]+)\s*&"
+                  r"\s*([\d.]+)\s*\(\$([\d.]+)\\%\$\)\s*&\s*([\d.]+)\s*\(\$([\d.]+)\\%\$\)", re.MULTILINE)
+NAMES = {"ff": "feed-forward", "lstm": "LSTM"}
+
+
+def parse_table_1(latex: str) -> list[dict]:
+    """Rows of the paper's Table 1: robot, network, similarity (cells of grid_cells), and
+    distances (voxel lengths) of the original, damaged and regrown robot with percentages."""
+    rows = []
+    for m in _ROW.finditer(latex):
+        rows.append({"robot": m[1], "network": m[2], "similarity_percent": float(m[3]),
+                     "similarity": int(m[4]), "grid_cells": int(m[5]), "original": float(m[6]),
+                     "damaged": float(m[7]), "damaged_percent": float(m[8]),
+                     "regrown": float(m[9]), "regrown_percent": float(m[10])})
+    return rows
+
+
+def paper_table_1(paper: Path | None) -> tuple[list[dict], str]:
+    """(rows, where they came from): the LaTeX file when it has the table, else the copy."""
+    candidates = [paper] if paper is not None else sorted(PAPER_GLOB.glob("*.txt"))
+    for path in candidates:
+        if path is not None and path.is_file():
+            rows = parse_table_1(path.read_text(errors="replace"))
+            if rows:
+                return rows, f"parsed from the paper's LaTeX ({path.name})"
+    return parse_table_1(TABLE_1_LATEX), "from the copy of the paper's LaTeX table in scripts/results_report.py"
+
+
+def fmt(value: float | None, digits: int = 3) -> str:
+    if value is None or (isinstance(value, float) and not math.isfinite(value)):
+        return "–"
+    return f"{value:.{digits}g}"
+
+
+def _git() -> str:
+    try:
+        done = subprocess.run(["git", "rev-parse", "--short", "HEAD"], check=False, cwd=ROOT,
+                              capture_output=True, text=True, timeout=30)
+    except (OSError, subprocess.TimeoutExpired):
+        return "unknown"
+    return done.stdout.strip() or "unknown"
+
+
+def _rel(path: Path, start: Path) -> str:
+    try:
+        return str(path.resolve().relative_to(start.resolve()))
+    except ValueError:
+        return str(path)
+
+
+def _best_distance(run: ex.RunInfo) -> float:
+    from mjregen.checkpoint import load_nca
+
+    npz = run.best_files()[0]
+    if not npz.is_file():
+        return math.nan
+    return float(load_nca(npz)[1].get("distance", math.nan))
+
+
+def _metric_sum(run: ex.RunInfo, column: str) -> int:
+    import csv
+
+    with (run.path / "metrics.csv").open() as handle:
+        return sum(int(float(r[column])) for r in csv.DictReader(handle))
+
+
+class Report:
+    """Collects the sections of results.md and the facts for the discussion."""
+
+    def __init__(self, args: argparse.Namespace) -> None:
+        self.args = args
+        self.doc_dir = args.out.parent
+        self.figures = args.figures
+        self.figures.mkdir(parents=True, exist_ok=True)
+        self.lines: list[str] = []
+        self.facts: list[str] = []
+        self.runs = ex.list_runs(args.root)
+        self.stats: dict[str, object] = {}
+
+    def add(self, *lines: str) -> None:
+        self.lines.extend(lines)
+
+    def image(self, path: Path, alt: str) -> str:
+        return f"![{alt}]({_rel(path, self.doc_dir)})"
+
+    # --- sections -----------------------------------------------------------------------
+
+    def header(self) -> None:
+        self.add("# Results: evolution and regeneration (issue #9)", "",
+                 f"Generated by `python scripts/results_report.py` on "
+                 f"{datetime.now(UTC).strftime('%Y-%m-%d %H:%M UTC')} at commit {_git()} from "
+                 f"`{self.args.root}` and `{_rel(self.args.assets, ROOT)}`. Every number, plot and "
+                 "table below is written by that script; regenerate instead of editing.", "")
+
+    def reproduce(self) -> None:
+        self.add("## How to reproduce", "",
+                 "At the paper's scale (months of CPU; resumable, run it again after a kill):",
+                 "```bash",
+                 "python scripts/paper_experiments.py --scale paper --workers $(nproc)",
+                 "python scripts/ship_assets.py --best --walkers --overwrite --replace-default",
+                 "python scripts/results_report.py",
+                 "```",
+                 "At the reduced scale of this document (`--scale quick`, about an hour on two "
+                 "cores), as the settings table below states:",
+                 "```bash",
+                 "python scripts/paper_experiments.py --scale quick --workers 2",
+                 "python scripts/ship_assets.py --best --walkers --overwrite --replace-default",
+                 "python scripts/results_report.py",
+                 "```",
+                 "`python scripts/paper_experiments.py --scale paper --dry-run` prints every "
+                 "`mjregen evolve` / `mjregen regen` command it runs (each writes the same run "
+                 "folder as the script).", "")
+
+    def settings(self) -> None:
+        from mjregen.physics import Physics, paper_physics
+
+        self.add("## Settings: what was run, against the paper", "",
+                 "| condition | paper: pop × gens × runs | here: pop × gens (finished) × runs | "
+                 "evaluations here / paper | truncation, elites, σ here (paper) | scale | evaluation |",
+                 "|---|---|---|---|---|---|---|")
+        for name, condition in ex.CONDITIONS.items():
+            paper = condition.paper_ga
+            paper_evals = paper.population * paper.generations * condition.paper_runs
+            runs = self.runs.get(name)
+            if not runs:
+                self.add(f"| {name} | {paper.population} × {paper.generations} × "
+                         f"{condition.paper_runs} | not run | – | – ({paper.truncation}, "
+                         f"{paper.elites}, {paper.sigma:g}) | – | – |")
+                continue
+            ga = runs[0].config["ga"]
+            done = sorted({r.generations_done for r in runs})
+            evals = sum(r.generations_done for r in runs) * ga["population"]
+            task = runs[0].config["task"]
+            physics = task.get("physics", {})
+            settle = physics.get("scene", {}).get("settle_time") if isinstance(physics, dict) else None
+            timing = (f"settle {fmt(settle) if settle is not None else 'paper'} s, walk "
+                      f"{fmt(task.get('duration')) if task.get('duration') is not None else 'paper'} s")
+            if physics == Physics().replace_scene(settle_time=settle).to_dict():
+                default = "today's default physics"
+            elif physics == paper_physics().replace_scene(settle_time=settle).to_dict():
+                default = "`paper_physics()`"
+            else:
+                default = "physics differ from today's defaults (see the run's config.json)"
+            self.add(f"| {name} | {paper.population} × {paper.generations} × {condition.paper_runs} | "
+                     f"{ga['population']} × {ga['generations']} ({'/'.join(map(str, done))}) × {len(runs)} | "
+                     f"{evals} / {paper_evals} ({100 * evals / paper_evals:.2g} %) | "
+                     f"{ga['truncation']}, {ga['elites']}, {ga['sigma']:g} ({paper.truncation}, "
+                     f"{paper.elites}, {paper.sigma:g}) | {ex.scale_of(runs[0].config)} | "
+                     f"{timing}; {default} |")
+            self.facts.append(f"{name}: {evals} evaluations, {100 * evals / paper_evals:.2g} % of "
+                              f"the paper's {paper_evals}.")
+        self.add("", "The paper's evaluation: 2D 0.25 s of walking (10 cycles at 40 Hz), 3D 0.5 s "
+                 "(20 cycles), after our settle of 1.0 s (2D) / 0.05 s (3D); 3D fitness = "
+                 "distance − 0.0583 × voxels. Physics: as the last column says, stored in each "
+                 "run's config.json (docs/fidelity.md compares it with the paper's engine). Truncation "
+                 "and elites keep the paper's share of the population (20 %; 2D: one elite).", "")
+
+    def curves(self) -> None:
+        from mjregen.stats import bootstrap_curves, plot_groups
+
+        self.add("## Fitness over generations", "",
+                 "Mean over runs of each run's best fitness per generation, shaded: bootstrapped "
+                 "95 % CI of the mean (10,000 resamples), runs cut to the shortest. The paper "
+                 "reports the same statistic (its Fig. 3b and 4b).", "")
+        for dim in (2, 3):
+            names = [f"{dim}d_{k}" for k in ex.NETS]
+            groups = {}
+            for name in names:
+                runs = self.runs.get(name)
+                if not runs:
+                    self.add(f"- {name}: not run.")
+                    continue
+                length = min(len(r.best) for r in runs)
+                stats = bootstrap_curves(np.stack([r.best[:length] for r in runs]))
+                groups[NAMES[name.split("_")[1]]] = stats
+                self.stats[name] = stats
+            if not groups:
+                self.add(f"- {dim}D: no runs, no plot.", "")
+                continue
+            path = self.figures / f"fitness_{dim}d.png"
+            plot_groups(groups, path, ylabel=f"best fitness ({dim}D)")
+            self.add("", self.image(path, f"{dim}D fitness curves"), "",
+                     "| condition | runs | generations | final mean best fitness [95 % CI] | best run: "
+                     "fitness, distance (voxel lengths), seed, generation | unstable / failed evaluations |",
+                     "|---|---|---|---|---|---|")
+            for name in names:
+                runs = self.runs.get(name)
+                if not runs:
+                    self.add(f"| {name} | not run | | | | |")
+                    continue
+                stats = self.stats[name]
+                top = ex.best_run(runs)
+                unstable = sum(_metric_sum(r, "unstable") for r in runs)
+                failed = sum(_metric_sum(r, "failed") for r in runs)
+                self.add(f"| {name} | {len(runs)} | {len(stats.mean)} | {stats.mean[-1]:.4g} "
+                         f"[{stats.low[-1]:.4g}, {stats.high[-1]:.4g}] | {top.best_fitness:.4g}, "
+                         f"{fmt(_best_distance(top), 4)}, seed {top.seed}, gen {top.best_generation} | "
+                         f"{unstable} / {failed} |")
+            self.add("")
+            if len(groups) == 2:
+                a, b = (self.stats[n] for n in names)
+                overlap = not (a.low[-1] > b.high[-1] or b.low[-1] > a.high[-1])
+                better = "feed-forward" if a.mean[-1] > b.mean[-1] else "LSTM"
+                paper = "LSTM slightly better" if dim == 2 else "feed-forward better"
+                self.facts.append(
+                    f"{dim}D: final mean best fitness feed-forward {a.mean[-1]:.4g} vs LSTM "
+                    f"{b.mean[-1]:.4g}: {better} higher, 95 % CIs "
+                    f"{'overlap (no clear difference at this scale)' if overlap else 'do not overlap'}; "
+                    f"the paper found {paper}.")
+
+    def shipped(self) -> list[tuple[str, Path, Path | None]]:
+        """Shipped NCAs: table and growth figures; returns (name, robot file, nca file) to draw."""
+        from mjregen.checkpoint import load_nca
+        from mjregen.figures import growth_figure
+
+        manifest_path = self.args.assets / "nca" / "manifest.json"
+        manifest = json.loads(manifest_path.read_text()) if manifest_path.is_file() else {}
+        real = {k: v for k, v in manifest.items() if not v.get("placeholder", False)}
+        self.add("## Shipped NCAs", "")
+        drawn: list[tuple[str, Path, Path | None]] = []
+        placeholders = sorted(k for k, v in manifest.items() if v.get("placeholder", False))
+        if placeholders:
+            self.add(f"Placeholders in the manifest (not results): {', '.join(placeholders)}.", "")
+        if not real:
+            self.add("No evolved NCA is shipped yet: run `python scripts/ship_assets.py --best`.", "")
+            return drawn
+        self.add(f"From `{_rel(manifest_path, ROOT)}`: each was grown and simulated again by "
+                 "`scripts/ship_assets.py` with the code at its commit, and `tests/test_assets.py` "
+                 "checks that today's code reproduces the fitness.", "",
+                 "| file | condition | scale | run, generation | fitness | distance (voxel lengths) | "
+                 "voxels (soft/hard/+/−) | pieces |", "|---|---|---|---|---|---|---|---|")
+        for key, entry in real.items():
+            r = entry["robot"]
+            source = entry["source"]
+            self.add(f"| {key} | {entry['condition']} | {entry.get('scale')} | "
+                     f"{source['run']} gen {source['generation']} | {entry['fitness']:.4g} | "
+                     f"{fmt(entry['distance'], 4)} | {r['voxels']} ({r['soft']}/{r['hard']}/"
+                     f"{r['muscle_plus']}/{r['muscle_minus']}) | {r.get('pieces', '–')} |")
+        self.add("", "Growth sequences (10 NCA steps, then the paper's cleaning):", "")
+        for key, entry in real.items():
+            if "same_as" in entry:
+                continue
+            npz = self.args.assets / "nca" / entry["file"]
+            nca, _ = load_nca(npz)
+            growth = nca.grow()
+            states = np.concatenate([growth.states[0], growth.robot().grid[None]])
+            path = self.figures / f"growth_{npz.stem}.png"
+            growth_figure(states, path, overwrite=True,
+                          titles=[f"step {k}" for k in range(len(states) - 1)] + ["cleaned"])
+            self.add(f"**{key}**", "", self.image(path, f"growth of {key}"), "")
+            drawn.append((npz.stem, npz.with_suffix(".npy"), npz))
+        return drawn
+
+    def walkers(self) -> list[tuple[str, Path, Path | None]]:
+        index = self.args.assets / "robots" / "walkers" / "walkers.json"
+        self.add("## Walkers of the regrowth experiment", "")
+        if not index.is_file():
+            self.add("Not shipped yet (`python scripts/ship_assets.py --walkers`).", "")
+            return []
+        data = json.loads(index.read_text())
+        self.add(data.get("diversity", ""), "",
+                 "| walker | source | fitness | distance | voxels | soft/hard/+/− | feet | l × w × h |",
+                 "|---|---|---|---|---|---|---|---|")
+        drawn = []
+        for w in data["walkers"]:
+            f, m = w["features"], w["materials"]
+            self.add(f"| {w['name']} | {w['condition']} seed {w['seed']} gen {w['generation']} | "
+                     f"{w['fitness']:.4g} | {fmt(w['distance'], 4)} | {w['voxels']} | "
+                     f"{m['soft']}/{m['hard']}/{m['muscle_plus']}/{m['muscle_minus']} | "
+                     f"{f['feet']:.0f} | {f['length']:.0f} × {f['width']:.0f} × {f['height']:.0f} |")
+            drawn.append((w["name"], index.parent / w["robot_file"], None))
+        self.add("")
+        return drawn
+
+    def gallery(self, robots: list[tuple[str, Path, Path | None]]) -> None:
+        self.add("## Gallery", "")
+        if not robots:
+            self.add("Nothing shipped to draw.", "")
+            return
+        if self.args.no_render:
+            self.add("Not rendered (`--no-render`).", "")
+            return
+        from PIL import Image
+
+        from mjregen.compile import compile_robot
+        from mjregen.grid import Robot
+        from mjregen.render import RobotRenderer, View
+
+        cells = []
+        for name, npy, _ in robots:
+            robot = Robot.load(npy)
+            if robot.is_empty:
+                continue
+            path = self.figures / f"gallery_{name}.png"
+            with RobotRenderer(compile_robot(robot), view=View(width=320, height=240)) as renderer:
+                Image.fromarray(renderer.render()).save(path, format="PNG")
+            cells.append(f"{self.image(path, name)}<br>{name}, {robot.n_voxels} voxels")
+        self.add("Each robot in its initial pose (before the settle), in the paper's colours: "
+                 "light blue soft, dark blue hard, red muscle +, green muscle −.", "",
+                 "| " + " | ".join(cells) + " |", "|" + "---|" * len(cells), "")
+
+    def regeneration(self) -> None:
+        rows, source = paper_table_1(self.args.paper)
+        self.add("## Regeneration and locomotion recovery", "",
+                 "Each walker's grown CA state is cut like the paper's robots (grid x-indices 0–3 "
+                 "of 9 emptied, alpha zeroed), a second NCA evolved for similarity (cells equal to "
+                 "the original, of 729) regrows it for 10 steps, and the original, damaged and "
+                 "regrown robots walk with the same physics (the paper: 0.5 s).", "")
+        found = ex.list_regen_runs(self.args.root)
+        if not found:
+            self.add("Ours: not run (`python scripts/paper_experiments.py --only regen`).", "")
+        else:
+            self.add("**Ours**", "",
+                     "| walker (regrowth network) | similarity | robot cells matching | voxels orig./dam./regr. | "
+                     "original | damaged (% of original) | regrown (% of original) | generations |",
+                     "|---|---|---|---|---|---|---|---|")
+            for walker, net, folder in found:
+                r = json.loads((folder / "recovery.json").read_text())
+                run = ex.read_run(folder)
+                pct = r["percent_of_original"]
+                sim = r["similarity"]["regrown"]
+                self.add(f"| {walker} ({NAMES.get(net, net)}) | {100 * sim / r['grid_cells']:.0f} % "
+                         f"({sim}/{r['grid_cells']}; damaged {r['similarity']['damaged']}) | "
+                         f"{100 * r['robot_similarity']['regrown']:.1f} % | "
+                         f"{r['voxels']['original']}/{r['voxels']['damaged']}/{r['voxels']['regrown']} | "
+                         f"{fmt(r['distance']['original'], 3)} | {fmt(r['distance']['damaged'], 3)} "
+                         f"({fmt(pct['damaged'], 2)} %) | {fmt(r['distance']['regrown'], 3)} "
+                         f"({fmt(pct['regrown'], 2)} %) | {run.generations_done} × pop "
+                         f"{run.config['ga']['population']} |")
+                self.facts.append(
+                    f"Regrowth of {walker} ({NAMES.get(net, net)}): {sim}/{r['grid_cells']} cells; "
+                    f"damaged walks {fmt(pct['damaged'], 2)} % and regrown "
+                    f"{fmt(pct['regrown'], 2)} % of the original's {fmt(r['distance']['original'], 3)} "
+                    "voxel lengths.")
+            durations = sorted({json.loads((f / "recovery.json").read_text())["duration"]
+                                for _, _, f in found})
+            self.add("", f"Distances in voxel lengths over {'/'.join(f'{d:g}' for d in durations)} s "
+                     "of walking (unstable runs show –).", "")
+        self.add(f"**The paper's Table 1** ({source}; Voxelyze, robots of its own evolutions, "
+                 "regrowth GA 1000 × 1000)", "",
+                 "| robot (network) | similarity | original | damaged (% of original) | regrown (% of original) |",
+                 "|---|---|---|---|---|")
+        for row in rows:
+            self.add(f"| {row['robot']} ({row['network']}) | {row['similarity_percent']:g} % "
+                     f"({row['similarity']}/{row['grid_cells']}) | {row['original']:g} | "
+                     f"{row['damaged']:g} ({row['damaged_percent']:g} %) | {row['regrown']:g} "
+                     f"({row['regrown_percent']:g} %) |")
+        self.add("")
+        self.paper_rows = rows
+
+    def discussion(self) -> None:
+        self.add("## Discussion", "", "Measured facts (written by the script):", "")
+        rows = getattr(self, "paper_rows", [])
+        best3d = [(_best_distance(ex.best_run(self.runs[n])), n) for n in ("3d_ff", "3d_lstm")
+                  if n in self.runs]
+        best3d = [b for b in best3d if math.isfinite(b[0])]
+        if rows and best3d:
+            best = max(best3d)
+            low, high = min(r["original"] for r in rows), max(r["original"] for r in rows)
+            self.facts.append(
+                f"Farthest 3D walker of the best runs: {fmt(best[0], 4)} voxel lengths in 0.5 s "
+                f"({best[1]}); the paper's walkers in Table 1 went {low:g}–{high:g} "
+                f"({100 * best[0] / high:.2g}–{100 * best[0] / low:.2g} % of that).")
+        best2d = [(_best_distance(ex.best_run(self.runs[n])), n) for n in ("2d_ff", "2d_lstm")
+                  if n in self.runs]
+        best2d = [b for b in best2d if math.isfinite(b[0])]
+        if best2d:
+            best = max(best2d)
+            self.facts.append(f"Farthest 2D walker of the best runs: {fmt(best[0], 4)} voxel "
+                              f"lengths in 0.25 s ({best[1]}); the paper gives no 2D distances.")
+        missing = [n for n in ex.CONDITIONS if n not in self.runs]
+        if missing:
+            self.facts.append(f"Not run: {', '.join(missing)}.")
+        self.add(*[f"- {fact}" for fact in self.facts] or ["- No runs yet."])
+        self.add("", "Caveats that hold for every number here: the runs are far shorter and fewer "
+                 "than the paper's (settings table), so the curves compare early evolution, not "
+                 "converged results; the physics is MuJoCo, not the paper's Voxelyze, so distances "
+                 "are comparable only as far as docs/fidelity.md shows; the regrowth walkers are "
+                 "our own evolved robots, not the paper's Biped, Tripod and Multiped.", "")
+        extra = self.doc_dir / "results_discussion.md"
+        if extra.is_file():
+            self.add(f"### Interpretation (from {extra.name})", "", extra.read_text().strip(), "")
+        else:
+            self.add(f"(Interpretation: write it in `{_rel(extra, ROOT)}`; this script includes "
+                     "that file here verbatim.)", "")
+
+    def write(self) -> Path:
+        from mjregen.fileio import atomic_open
+
+        with atomic_open(self.args.out, "w") as handle:
+            handle.write("\n".join(self.lines).rstrip() + "\n")
+        return self.args.out
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(description="Write docs/results.md and docs/results/*.png "
+                                     "from the results runs and the shipped assets.")
+    parser.add_argument("--root", type=Path, default=ex.DEFAULT_ROOT,
+                        help=f"results folder (default {ex.DEFAULT_ROOT})")
+    parser.add_argument("--assets", type=Path, default=ROOT / "assets", help="assets folder")
+    parser.add_argument("--out", type=Path, default=ROOT / "docs" / "results.md",
+                        help="the Markdown file (default docs/results.md)")
+    parser.add_argument("--figures", type=Path, help="PNG folder (default: results/ beside --out)")
+    parser.add_argument("--paper", type=Path, help="the paper's LaTeX (default: the shared copy)")
+    parser.add_argument("--no-render", action="store_true", help="skip the rendered gallery")
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    args.figures = args.figures or args.out.parent / "results"
+    try:
+        if not args.no_render:
+            from mjregen.render import select_gl_backend
+
+            select_gl_backend()  # sets MUJOCO_GL before anything imports mujoco
+        report = Report(args)
+        report.header()
+        report.reproduce()
+        report.settings()
+        report.curves()
+        robots = report.shipped()
+        robots += report.walkers()
+        report.gallery(robots)
+        report.regeneration()
+        report.discussion()
+        path = report.write()
+    except (MjregenError, OSError, ValueError) as error:
+        print(f"results_report: error: {error}", file=sys.stderr)
+        return 1
+    print(f"wrote {path} and {args.figures}/")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

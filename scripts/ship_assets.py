@@ -1,0 +1,307 @@
+#!/usr/bin/env python3
+"""Ship evolved NCAs and walkers from the results runs into assets/, with a manifest.
+
+--best: for every evolution condition with runs under --root (runs/results/<condition>/
+seed_<n>), take the run whose best fitness is highest and that run's first generation that
+reached it (best/gen_NNNN.npz), grow the NCA again and simulate the robot again with the
+current code and the run's own settings (its physics and measured time, from config.json),
+then copy the NCA to assets/nca/walker_<dim>d_<kind>.npz, the grown robot to the same name
+with .npy, and write its entry in assets/nca/manifest.json: condition, settings, source run,
+seed, generation, fitness, distance, stability, voxel and material counts, date, versions of
+mjregen/torch/mujoco/numpy, git commit and sha256 of both files. tests/test_assets.py
+checks every such entry by growing and simulating again.
+
+--walkers: the three diverse 3D walkers of the regrowth experiment
+(`mjregen.experiments.load_or_pick_walkers`: picked once into <root>/walkers, see DIVERSITY
+there) copied to assets/robots/walkers/walker_<i>.{npz,npy} with walkers.json, each
+re-measured like the NCAs and with its regrowth recovery when <root> has one.
+
+--replace-default also copies the best 3D NCA over assets/nca/walker_3d.npz, the NCA that
+scripts/grow_and_walk.py grows by default (needs --overwrite: it replaces the placeholder).
+
+Nothing that exists is replaced without --overwrite.
+
+Examples:
+  python scripts/ship_assets.py --best --walkers
+  python scripts/ship_assets.py --best --condition 3d_ff --overwrite --replace-default
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import subprocess
+import sys
+from collections.abc import Sequence
+from datetime import UTC, datetime
+from pathlib import Path
+
+import numpy as np
+
+from mjregen import experiments as ex
+from mjregen.errors import MjregenError
+from mjregen.fileio import atomic_open
+from mjregen.grid import Material, Robot
+
+ROOT = Path(__file__).resolve().parents[1]
+DEFAULT_ASSETS = ROOT / "assets"
+DEFAULT_WALKER = "walker_3d.npz"  # scripts/grow_and_walk.py's default NCA
+TOLERANCE = {"relative": 1e-6, "absolute": 1e-9}  # fitness re-simulation, see tests/test_assets.py
+
+
+def sha256(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def versions() -> dict[str, str]:
+    import mujoco
+    import torch
+
+    from mjregen import __version__
+
+    return {"mjregen": __version__, "torch": torch.__version__, "mujoco": mujoco.__version__,
+            "numpy": np.__version__}
+
+
+def git_commit() -> dict[str, object]:
+    """HEAD of the repository this script is in, and whether mjregen/ has uncommitted changes."""
+    def git(*args: str) -> str | None:
+        try:
+            done = subprocess.run(["git", *args], check=False, cwd=ROOT, capture_output=True, text=True,
+                                  timeout=30)
+        except (OSError, subprocess.TimeoutExpired):
+            return None
+        return done.stdout.strip() if done.returncode == 0 else None
+
+    commit = git("rev-parse", "HEAD")
+    status = git("status", "--porcelain", "--", "mjregen")
+    return {"commit": commit, "mjregen_modified": None if status is None else bool(status)}
+
+
+def material_counts(robot: Robot) -> dict[str, int]:
+    return {m.name.lower(): int(robot.material_counts().get(m, 0))
+            for m in Material if m != Material.EMPTY}
+
+
+def measure(npz: Path, run_config: dict, expected_robot: Path | None = None) -> dict:
+    """Grow the NCA in `npz` and walk its robot with the run's physics and measured time.
+
+    Returns:
+      nca config, robot (`Robot`), fitness, distance (voxel lengths, None when unstable),
+      stable, reason, voxels, materials, evaluation settings.
+    Raises:
+      MjregenError: the run's config has no physics description, or the grown robot differs
+        from `expected_robot` (the run's own .npy).
+    """
+    from mjregen.checkpoint import load_nca
+    from mjregen.physics import Physics
+    from mjregen.simulate import simulate
+
+    task = run_config.get("task", {})
+    if not isinstance(task.get("physics"), dict):
+        raise MjregenError(f"the run of {npz} stores no physics description in config.json")
+    physics = Physics.from_dict(task["physics"])
+    duration = task.get("duration")
+    nca, _ = load_nca(npz)
+    robot = nca.grow().robot()
+    if expected_robot is not None and Robot.load(expected_robot) != robot:
+        raise MjregenError(f"{npz} grows another robot than {expected_robot} with this code")
+    result = simulate(robot, physics=physics, duration=duration)
+    settle, measured = physics.scene.timing(robot.dim)
+    return {
+        "nca": nca.config.to_dict(), "robot": robot, "fitness": float(result.fitness),
+        "distance": float(result.distance) if result.stable else None, "stable": result.stable,
+        "reason": result.reason, "voxels": robot.n_voxels, "materials": material_counts(robot),
+        "evaluation": {"physics": task["physics"], "settle_s": settle,
+                       "duration_s": measured if duration is None else duration,
+                       "duration_arg": duration,
+                       "physics_is_current_default": task["physics"] == Physics().to_dict()},
+    }
+
+
+def _copy(source: Path, target: Path, *, overwrite: bool) -> None:
+    with atomic_open(target, overwrite=overwrite) as handle:
+        handle.write(source.read_bytes())
+
+
+def _check_free(paths: list[Path], manifest: dict, keys: list[str], *, overwrite: bool) -> None:
+    if overwrite:
+        return
+    taken = [str(p) for p in paths if p.exists()] + [f"manifest entry {k}" for k in keys if k in manifest]
+    if taken:
+        raise MjregenError(f"{', '.join(taken)} already exist(s); pass --overwrite to replace")
+
+
+def read_manifest(path: Path) -> dict:
+    return json.loads(path.read_text()) if path.is_file() else {}
+
+
+def write_manifest(path: Path, manifest: dict) -> None:
+    with atomic_open(path, "w") as handle:
+        json.dump(manifest, handle, indent=2)
+        handle.write("\n")
+
+
+def ship_best(root: Path, assets: Path, *, conditions: list[str] | None, overwrite: bool,
+              replace_default: bool) -> list[dict]:
+    """Ship the best NCA of each condition (see the module docstring); returns the entries."""
+    runs = ex.list_runs(root)
+    names = [n for n in (conditions or list(ex.CONDITIONS)) if n in runs]
+    missing = [n for n in (conditions or []) if n not in runs]
+    if missing:
+        raise MjregenError(f"no runs of {', '.join(missing)} under {root}")
+    if not names:
+        raise MjregenError(f"no evolution runs under {root}; run scripts/paper_experiments.py first")
+    folder = assets / "nca"
+    manifest_path = folder / "manifest.json"
+    manifest = read_manifest(manifest_path)
+    targets = {n: folder / f"walker_{n}.npz" for n in names}
+    keys = [t.name for t in targets.values()]
+    paths = [p for t in targets.values() for p in (t, t.with_suffix(".npy"))]
+    _check_free(paths, manifest, keys, overwrite=overwrite)
+    if replace_default and not overwrite and (folder / DEFAULT_WALKER).exists():
+        raise MjregenError(f"--replace-default replaces {folder / DEFAULT_WALKER}: pass --overwrite")
+    stamp = {"date": datetime.now(UTC).isoformat(timespec="seconds"),
+             "versions": versions(), "git": git_commit()}
+    entries = []
+    for name in names:
+        run = ex.best_run(runs[name])
+        npz, npy = run.best_files()
+        print(f"{name}: {run.path} generation {run.best_generation} (fitness in the run "
+              f"{run.best_fitness:.6g}); growing and simulating again ...", flush=True)
+        measured = measure(npz, run.config, npy)
+        target = targets[name]
+        _copy(npz, target, overwrite=overwrite)
+        measured["robot"].save(target.with_suffix(".npy"), overwrite=overwrite)
+        entry = _entry(name, run, npz, target, measured, stamp, len(runs[name]))
+        manifest[target.name] = entry
+        entries.append(entry)
+        print(f"    fitness {entry['fitness']:.6g}, distance {entry['distance']}, "
+              f"{entry['robot']['voxels']} voxels -> {target}"
+              + ("" if entry["source"]["matches_run"] else "  (differs from the run's fitness!)"))
+    if replace_default:
+        best3d = max((e for e in entries if e["nca"]["dim"] == 3), key=lambda e: e["fitness"],
+                     default=None)
+        if best3d is None:
+            raise MjregenError("--replace-default needs a 3D condition among those shipped")
+        default = folder / DEFAULT_WALKER
+        _copy(folder / best3d["file"], default, overwrite=True)
+        default.with_suffix(".npy").write_bytes((folder / best3d["robot_file"]).read_bytes())
+        manifest[DEFAULT_WALKER] = {**best3d, "file": DEFAULT_WALKER,
+                                    "robot_file": default.with_suffix(".npy").name,
+                                    "same_as": best3d["file"],
+                                    "note": "scripts/grow_and_walk.py grows this NCA by default"}
+        print(f"{default} = {best3d['file']}")
+    write_manifest(manifest_path, manifest)
+    print(f"wrote {manifest_path}")
+    return entries
+
+
+def _entry(name: str, run: ex.RunInfo, npz: Path, target: Path, measured: dict, stamp: dict,
+           runs_in_condition: int) -> dict:
+    fitness = measured["fitness"]
+    matches = bool(np.isclose(fitness, run.best_fitness, rtol=1e-5, atol=1e-6))  # csv has 6 digits
+    return {
+        "placeholder": False,
+        "file": target.name,
+        "robot_file": target.with_suffix(".npy").name,
+        "condition": name,
+        "nca": measured["nca"],
+        "scale": ex.scale_of(run.config),
+        "ga": run.config["ga"],
+        "source": {"run": str(run.path), "seed": run.seed, "generation": run.best_generation,
+                   "file": str(npz.relative_to(run.path)), "generations_run": run.generations_done,
+                   "runs_in_condition": runs_in_condition, "fitness_in_run": run.best_fitness,
+                   "matches_run": matches},
+        "evaluation": measured["evaluation"],
+        "fitness": fitness,
+        "distance": measured["distance"],
+        "stable": measured["stable"],
+        "robot": {"voxels": measured["voxels"], **measured["materials"],
+                  "pieces": ex.pieces(measured["robot"])},
+        "tolerance": TOLERANCE,
+        **stamp,
+        "sha256": sha256(target),
+        "robot_sha256": sha256(target.with_suffix(".npy")),
+    }
+
+
+def ship_walkers(root: Path, assets: Path, *, overwrite: bool) -> list[dict]:
+    """Copy the regrowth experiment's walkers to assets/robots/walkers (module docstring)."""
+    walkers = ex.load_or_pick_walkers(root)
+    folder = assets / "robots" / "walkers"
+    index = folder / "walkers.json"
+    paths = [folder / f"{w['name']}{s}" for w in walkers for s in (".npz", ".npy")] + [index]
+    _check_free(paths, {}, [], overwrite=overwrite)
+    recoveries = {(w, net): path for w, net, path in ex.list_regen_runs(root)}
+    stamp = {"date": datetime.now(UTC).isoformat(timespec="seconds"),
+             "versions": versions(), "git": git_commit()}
+    shipped = []
+    for walker in walkers:
+        run = ex.read_run(Path(walker["run"]))
+        print(f"{walker['name']}: {walker['run']} generation {walker['generation']}; measuring ...",
+              flush=True)
+        measured = measure(Path(walker["npz"]), run.config, Path(walker["npy"]))
+        target = folder / f"{walker['name']}.npz"
+        _copy(Path(walker["npz"]), target, overwrite=overwrite)
+        measured["robot"].save(target.with_suffix(".npy"), overwrite=overwrite)
+        regen = {net: {"run": str(path), **json.loads((path / "recovery.json").read_text())}
+                 for (w, net), path in recoveries.items() if w == walker["name"]}
+        shipped.append({
+            **{k: walker[k] for k in ("name", "condition", "seed", "generation", "features")},
+            "run": walker["run"], "file": target.name, "robot_file": target.with_suffix(".npy").name,
+            "fitness": measured["fitness"], "distance": measured["distance"],
+            "stable": measured["stable"], "voxels": measured["voxels"],
+            "materials": measured["materials"], "evaluation": measured["evaluation"],
+            "regrowth": regen, "sha256": sha256(target),
+            "robot_sha256": sha256(target.with_suffix(".npy")), **stamp})
+        print(f"    fitness {measured['fitness']:.6g}, distance {measured['distance']}, "
+              f"{measured['voxels']} voxels -> {target}")
+    with atomic_open(index, "w", overwrite=overwrite) as handle:
+        json.dump({"diversity": ex.DIVERSITY, "walkers": shipped}, handle, indent=2)
+        handle.write("\n")
+    print(f"wrote {index}")
+    return shipped
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        description="Copy the best evolved NCAs (and three diverse 3D walkers) from the results "
+        "runs into assets/, re-measured with the current code, with a manifest.",
+        epilog="example: python scripts/ship_assets.py --best --walkers")
+    parser.add_argument("--best", action="store_true",
+                        help="ship the best NCA of each condition to assets/nca")
+    parser.add_argument("--walkers", action="store_true",
+                        help="ship the regrowth experiment's three walkers to assets/robots/walkers")
+    parser.add_argument("--condition", action="append", choices=list(ex.CONDITIONS),
+                        help="with --best: only this condition (repeatable)")
+    parser.add_argument("--replace-default", action="store_true",
+                        help=f"with --best: also copy the best 3D NCA over assets/nca/{DEFAULT_WALKER}")
+    parser.add_argument("--root", type=Path, default=ex.DEFAULT_ROOT,
+                        help=f"results folder (default {ex.DEFAULT_ROOT})")
+    parser.add_argument("--assets", type=Path, default=DEFAULT_ASSETS,
+                        help="assets folder (default: the repository's)")
+    parser.add_argument("--overwrite", action="store_true", help="replace existing assets")
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not (args.best or args.walkers):
+        parser.error("choose --best and/or --walkers")
+    try:
+        if args.best:
+            ship_best(args.root, args.assets, conditions=args.condition, overwrite=args.overwrite,
+                      replace_default=args.replace_default)
+        if args.walkers:
+            ship_walkers(args.root, args.assets, overwrite=args.overwrite)
+    except (MjregenError, OSError, ValueError) as error:
+        print(f"ship_assets: error: {error}", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
