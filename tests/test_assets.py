@@ -1,0 +1,76 @@
+"""Every shipped NCA in assets/nca/manifest.json reproduces its manifest when grown and
+simulated by today's code with the manifest's stated settings.
+
+Evaluation is deterministic (same code, same physics → same trajectory; the native and
+tendon bond backends agree to ~1e-15 m), so the fitness must match to RTOL. A failure means
+the physics or growth code changed what a shipped walker does: re-ship the assets
+(scripts/ship_assets.py --overwrite) or find the regression. Placeholders are only checked
+for their file hash and their flag; with no real entries the placeholder flag is asserted,
+so this file never passes by skipping.
+"""
+
+import hashlib
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mjregen.checkpoint import load_nca
+from mjregen.grid import Material, Robot
+from mjregen.physics import Physics
+from mjregen.simulate import simulate
+
+NCA_DIR = Path(__file__).resolve().parents[1] / "assets" / "nca"
+MANIFEST = json.loads((NCA_DIR / "manifest.json").read_text())
+REAL = sorted(k for k, v in MANIFEST.items() if not v.get("placeholder", False))
+RTOL, ATOL = 1e-6, 1e-9  # fitness; deterministic evaluation
+NO_REAL = "no-real-entries"
+
+
+def sha256(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def test_every_entry_says_whether_it_is_a_placeholder():
+    assert MANIFEST, "assets/nca/manifest.json is empty"
+    for key, entry in MANIFEST.items():
+        assert isinstance(entry.get("placeholder"), bool), f"{key}: 'placeholder' must be true/false"
+        assert (NCA_DIR / key).is_file(), f"{key} is in the manifest but not in assets/nca"
+        assert sha256(NCA_DIR / key) == entry["sha256"], f"{key}: file differs from its sha256"
+    for path in NCA_DIR.glob("*.npz"):
+        assert path.name in MANIFEST, f"{path.name} is shipped without a manifest entry"
+
+
+@pytest.mark.parametrize("key", REAL or [NO_REAL])
+def test_shipped_nca_reproduces_its_manifest(key):
+    if key == NO_REAL:
+        # nothing evolved is shipped yet: the default walker must say it is a placeholder
+        assert MANIFEST["walker_3d.npz"]["placeholder"] is True
+        return
+    entry = MANIFEST[key]
+    npz = NCA_DIR / key
+    robot_file = NCA_DIR / entry["robot_file"]
+    assert sha256(npz) == entry["sha256"]
+    assert sha256(robot_file) == entry["robot_sha256"]
+    if "same_as" in entry:  # a copy of another entry (the default walker): same files, same facts
+        other = MANIFEST[entry["same_as"]]
+        assert entry["sha256"] == other["sha256"] and entry["fitness"] == other["fitness"]
+        return
+    nca, _ = load_nca(npz)
+    assert nca.config.to_dict() == entry["nca"]
+    robot = nca.grow().robot()
+    assert robot == Robot.load(robot_file), "the NCA no longer grows the shipped robot"
+    assert robot.n_voxels == entry["robot"]["voxels"]
+    counts = robot.material_counts()
+    for material in Material:
+        if material != Material.EMPTY:
+            assert counts.get(material, 0) == entry["robot"][material.name.lower()]
+    evaluation = entry["evaluation"]
+    result = simulate(robot, physics=Physics.from_dict(evaluation["physics"]),
+                      duration=evaluation["duration_s"])
+    assert result.stable == entry["stable"]
+    assert result.fitness == pytest.approx(entry["fitness"], rel=RTOL, abs=ATOL)
+    if entry["distance"] is not None:
+        assert result.distance == pytest.approx(entry["distance"], rel=RTOL, abs=ATOL)
+    assert np.isfinite(result.fitness)

@@ -1,0 +1,234 @@
+"""The results tooling (#9): experiment definitions, the rerun script, shipping assets and
+the report, on smoke-scale runs (2D evolutions of a few seconds; hand-made 3D run folders)."""
+
+import importlib.util
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mjregen import experiments as ex
+from mjregen.checkpoint import load_nca, save_nca
+from mjregen.cli import main as mjregen_main
+from mjregen.evolve import PRESETS
+from mjregen.grid import Robot
+from mjregen.nca import NCA, NCAConfig, grow
+from mjregen.physics import Physics
+from mjregen.runs import METRICS, RunFolderError
+from mjregen.simulate import simulate
+
+SCRIPTS = Path(__file__).resolve().parents[1] / "scripts"
+SMOKE = ex.SCALES["smoke"]
+
+
+def script(name: str):
+    spec = importlib.util.spec_from_file_location(name, SCRIPTS / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+paper_experiments, ship_assets, results_report = (
+    script(n) for n in ("paper_experiments", "ship_assets", "results_report"))
+
+
+def test_conditions_and_paper_scale_are_the_papers():
+    assert list(ex.CONDITIONS) == ["2d_ff", "2d_lstm", "3d_ff", "3d_lstm"]
+    jobs = ex.evolution_jobs(ex.SCALES["paper"], root="R")
+    by_condition = {}
+    for job in jobs:
+        by_condition.setdefault(job.condition.name, []).append(job)
+        assert job.ga == PRESETS[f"{job.condition.dim}d"]  # exactly the paper's GA
+        assert job.out == Path("R") / job.condition.name / f"seed_{job.seed}"
+        assert job.duration is None and job.physics == Physics()
+    assert {n: len(j) for n, j in by_condition.items()} == {"2d_ff": 10, "2d_lstm": 10,
+                                                            "3d_ff": 24, "3d_lstm": 24}
+    quick = ex.evolution_jobs(ex.SCALES["quick"], conditions=["3d_ff"], population=50, runs=2)
+    assert [j.seed for j in quick] == [0, 1]
+    assert (quick[0].ga.population, quick[0].ga.truncation, quick[0].ga.elites) == (50, 10, 10)
+    assert ex.scaled_ga(PRESETS["2d"], 20, 5).elites == 1  # the 2D preset's single elite stays
+    with pytest.raises(ex.MjregenError, match="unknown condition"):
+        ex.evolution_jobs(SMOKE, conditions=["4d_ff"])
+
+
+def test_dry_run_prints_every_command_and_runs_nothing(tmp_path, capsys):
+    assert paper_experiments.main(["--dry-run", "--root", str(tmp_path), "--workers", "2"]) == 0
+    out = capsys.readouterr().out
+    commands = [line for line in out.splitlines() if line.startswith("mjregen evolve")]
+    assert len(commands) == 68
+    assert (f"mjregen evolve --dim 3 --net lstm --preset 3d --pop 100 --gens 300 --truncation 20 "
+            f"--elites 20 --sigma 0.1 --seed 23 --workers 2 --out {tmp_path}/3d_lstm/seed_23") in out
+    assert "--pop 1000 --gens 1000 --truncation 200 --elites 200" in out  # the regrowth GA
+    assert "4440000 evaluations" in out
+    assert not any(tmp_path.iterdir())
+
+
+def test_tiny_run_resumes_and_matches_its_printed_command(tmp_path):
+    job, = ex.evolution_jobs(SMOKE, root=tmp_path, conditions=["2d_ff"], runs=1)
+
+    class Killed(Exception):
+        pass
+
+    def kill(row):
+        if row["generation"] == 0:
+            raise Killed
+
+    # kill after generation 0 (through run_evolution's hook), then resume with the job
+    from mjregen.locomotion import LocomotionTask
+    from mjregen.parallel import SerialBackend
+    from mjregen.runs import run_evolution
+
+    task = LocomotionTask(nca=job.condition.nca, physics=job.physics, duration=job.duration)
+    with pytest.raises(Killed):
+        run_evolution(task, job.ga, seed=job.seed, out=job.out, backend=SerialBackend(),
+                      task_config=ex.task_config(task.nca, task.physics, task.duration),
+                      progress=False, on_generation=kill)
+    assert ex.read_run(job.out).generations_done == 1
+    resumed = ex.run_evolution_job(job, progress=False)
+    assert ex.read_run(job.out).complete
+    # the printed `mjregen evolve` command writes the same run (config and results)
+    cli_out = tmp_path / "cli"
+    argv = job.argv()
+    argv[argv.index("--out") + 1] = str(cli_out)
+    assert mjregen_main(argv + ["--quiet"]) == 0
+    a, b = (json.loads((p / "config.json").read_text()) for p in (job.out, cli_out))
+    assert {**a, "created": None} == {**b, "created": None}
+    assert np.array_equal(ex.read_run(cli_out).best, ex.read_run(job.out).best)
+    assert ex.run_evolution_job(job, progress=False).best_fitness == resumed.best_fitness  # finished: no-op
+    other = ex.evolution_jobs(SMOKE, root=tmp_path, conditions=["2d_ff"], runs=1, population=6)[0]
+    with pytest.raises(RunFolderError, match="different settings"):
+        ex.run_evolution_job(other, progress=False)
+
+
+@pytest.fixture(scope="module")
+def results(tmp_path_factory) -> Path:
+    """Smoke runs: 2D ff (2 seeds) and lstm (1 seed) evolved for real; hand-made 3D ff runs
+    whose best robots are random NCAs' robots (no 3D evolution: too slow for a test)."""
+    root = tmp_path_factory.mktemp("results")
+    assert paper_experiments.main(["--scale", "smoke", "--only", "2d_ff", "--root", str(root),
+                                   "--quiet"]) == 0
+    assert paper_experiments.main(["--scale", "smoke", "--only", "2d_lstm", "--runs", "1",
+                                   "--root", str(root), "--quiet"]) == 0
+    config = NCAConfig(dim=3, kind="ff")
+    rng = np.random.default_rng(5)
+    genomes = rng.normal(0.0, 0.1, size=(24, config.genome_size)).astype(np.float32)
+    grids = grow(config, genomes).grids
+    usable = [i for i in np.argsort([np.count_nonzero(g) for g in grids])
+              if np.count_nonzero(grids[i]) and ex.pieces(Robot(grids[i])) == 1][:4]
+    assert len(usable) == 4
+    for seed, picks in enumerate((usable[:2], usable[2:])):
+        run = ex.run_folder(root, "3d_ff", seed)
+        (run / "best").mkdir(parents=True)
+        physics = SMOKE.physics(3)
+        (run / "config.json").write_text(json.dumps({
+            "format": "mjregen-run-1", "seed": seed, "ga": ex.scaled_ga(PRESETS["3d"], 4, 2).to_dict(),
+            "task": ex.task_config(config, physics, SMOKE.duration(3))}))
+        rows = []
+        for generation, i in enumerate(picks):
+            fitness = simulate(grids[i], physics=physics, duration=SMOKE.duration(3))
+            stem = run / "best" / f"gen_{generation:04d}"
+            save_nca(stem.with_suffix(".npz"), NCA(config, genomes[i]),
+                     metadata={"generation": generation, "fitness": fitness.fitness,
+                               "distance": fitness.distance + 1.0, "voxels": fitness.n_voxels})
+            Robot(grids[i]).save(stem.with_suffix(".npy"))
+            rows.append({k: 0 for k in METRICS} | {"generation": generation, "best": fitness.fitness})
+        with (run / "metrics.csv").open("w") as handle:
+            handle.write(",".join(METRICS) + "\n")
+            handle.writelines(",".join(str(r[k]) for k in METRICS) + "\n" for r in rows)
+    return root
+
+
+def test_list_runs_and_walkers(results):
+    runs = ex.list_runs(results)
+    assert {n: len(r) for n, r in runs.items()} == {"2d_ff": 2, "2d_lstm": 1, "3d_ff": 2}
+    assert all(r.complete for rs in runs.values() for r in rs)
+    walkers = ex.load_or_pick_walkers(results)
+    assert len(walkers) == 3 and len({w["npz"] for w in walkers}) == 3
+    farthest = max(ex.walker_candidates(results), key=lambda c: c.distance)
+    assert (walkers[0]["run"], walkers[0]["generation"]) == (str(farthest.run), farthest.generation)
+    for w in walkers:
+        assert Robot.load(w["npy"]) == load_nca(w["npz"])[0].grow().robot()
+    assert ex.load_or_pick_walkers(results) == walkers  # picked once
+
+
+def test_regrowth_job_writes_recovery(results):
+    walkers = ex.load_or_pick_walkers(results)
+    job, = ex.regen_jobs(SMOKE, walkers[:1], root=results)
+    assert job.net == "ff" and job.out == results / "regen_walker_1_ff" / "seed_0"
+    assert ex.run_regen_job(job, progress=False) == 0
+    report = json.loads((job.out / "recovery.json").read_text())
+    assert report["grid_cells"] == 729 and job.complete
+    assert ex.list_regen_runs(results) == [("walker_1", "ff", job.out)]
+
+
+def test_ship_assets_matches_resimulation_and_never_overwrites(results, tmp_path, capsys):
+    assets = tmp_path / "assets"
+    (assets / "nca").mkdir(parents=True)
+    (assets / "nca" / "manifest.json").write_text(json.dumps({"walker_3d.npz": {"placeholder": True}}))
+    args = ["--root", str(results), "--assets", str(assets), "--best"]
+    assert ship_assets.main(args + ["--condition", "2d_ff", "--condition", "2d_lstm"]) == 0
+    manifest = json.loads((assets / "nca" / "manifest.json").read_text())
+    assert manifest["walker_3d.npz"] == {"placeholder": True}  # merged, not replaced
+    runs = ex.list_runs(results)
+    for name in ("2d_ff", "2d_lstm"):
+        entry = manifest[f"walker_{name}.npz"]
+        best = ex.best_run(runs[name])
+        assert (entry["source"]["seed"], entry["source"]["generation"]) == (best.seed, best.best_generation)
+        assert entry["source"]["matches_run"] and entry["scale"] == "smoke"
+        assert entry["placeholder"] is False and entry["versions"]["mjregen"]
+        nca, _ = load_nca(assets / "nca" / entry["file"])
+        robot = nca.grow().robot()
+        assert robot == Robot.load(assets / "nca" / entry["robot_file"])
+        result = simulate(robot, physics=Physics.from_dict(entry["evaluation"]["physics"]),
+                          duration=entry["evaluation"]["duration_s"])
+        assert result.fitness == pytest.approx(entry["fitness"], rel=1e-6, abs=1e-9)
+        assert entry["robot"]["voxels"] == robot.n_voxels
+        assert entry["sha256"] == ship_assets.sha256(assets / "nca" / entry["file"])
+    before = (assets / "nca" / "manifest.json").read_bytes()
+    capsys.readouterr()
+    assert ship_assets.main(args + ["--condition", "2d_ff"]) == 1
+    assert "--overwrite" in capsys.readouterr().err
+    assert (assets / "nca" / "manifest.json").read_bytes() == before
+    assert ship_assets.main(["--root", str(results), "--assets", str(assets), "--walkers"]) == 0
+    shipped = json.loads((assets / "robots" / "walkers" / "walkers.json").read_text())
+    assert [w["name"] for w in shipped["walkers"]] == ["walker_1", "walker_2", "walker_3"]
+    assert "ff" in shipped["walkers"][0]["regrowth"]  # the regrowth run's recovery is attached
+    assert ship_assets.main(["--root", str(results), "--assets", str(assets), "--walkers"]) == 1
+
+
+def test_results_report_writes_every_section(results, tmp_path, monkeypatch):
+    monkeypatch.setenv("MUJOCO_GL", "egl")  # recorded, so that teardown restores the original
+    monkeypatch.delenv("MUJOCO_GL")  # the report picks the backend and sets MUJOCO_GL itself
+    assets = tmp_path / "assets"
+    (assets / "nca").mkdir(parents=True)
+    (assets / "nca" / "manifest.json").write_text(json.dumps({"walker_3d.npz": {"placeholder": True}}))
+    assert ship_assets.main(["--root", str(results), "--assets", str(assets), "--best",
+                             "--condition", "2d_ff"]) == 0
+    out = tmp_path / "docs" / "results.md"
+    assert results_report.main(["--root", str(results), "--assets", str(assets), "--out", str(out)]) == 0
+    text = out.read_text()
+    for heading in ("## How to reproduce", "## Settings", "## Fitness over generations",
+                    "## Shipped NCAs", "## Regeneration", "The paper's Table 1", "## Discussion"):
+        assert heading in text, heading
+    assert "| 3d_lstm | 100 × 300 × 24 | not run |" in text
+    assert "| Tripod (feed forward) | 99 % (728/729) | 44.5 | 1.63 (3.6 %) | 20.3 (45 %) |" in text
+    assert "walker_1 (feed-forward)" in text
+    figures = out.parent / "results"
+    for name in ("fitness_2d.png", "fitness_3d.png", "growth_walker_2d_ff.png",
+                 "gallery_walker_2d_ff.png"):
+        assert (figures / name).read_bytes()[:4] == b"\x89PNG", name
+    # the paper's table parses the same from the embedded copy and from a LaTeX file
+    copy = results_report.parse_table_1(results_report.TABLE_1_LATEX)
+    assert [r["robot"] for r in copy] == ["Biped", "Tripod", "Multiped"]
+    assert copy[2] | {} == {"robot": "Multiped", "network": "recurrent", "similarity_percent": 91.0,
+                            "similarity": 667, "grid_cells": 729, "original": 42.7, "damaged": 5.36,
+                            "damaged_percent": 12.0, "regrown": 9.6, "regrown_percent": 22.0}
+
+
+def test_results_report_on_nothing_says_not_run(tmp_path):
+    out = tmp_path / "results.md"
+    assert results_report.main(["--root", str(tmp_path / "none"), "--assets", str(tmp_path),
+                                "--out", str(out), "--no-render"]) == 0
+    text = out.read_text()
+    assert text.count("not run") >= 4 and "No evolved NCA is shipped yet" in text
