@@ -104,7 +104,8 @@ def test_tiny_run_resumes_and_matches_its_printed_command(tmp_path):
 @pytest.fixture(scope="module")
 def results(tmp_path_factory) -> Path:
     """Smoke runs: 2D ff (2 seeds) and lstm (1 seed) evolved for real; hand-made 3D ff runs
-    whose best robots are random NCAs' robots (no 3D evolution: too slow for a test)."""
+    whose best robots are random NCAs' robots (no 3D evolution: too slow for a test); the
+    first picked walker regrown."""
     root = tmp_path_factory.mktemp("results")
     assert paper_experiments.main(["--scale", "smoke", "--only", "2d_ff", "--root", str(root),
                                    "--quiet"]) == 0
@@ -136,6 +137,8 @@ def results(tmp_path_factory) -> Path:
         with (run / "metrics.csv").open("w") as handle:
             handle.write(",".join(METRICS) + "\n")
             handle.writelines(",".join(str(r[k]) for k in METRICS) + "\n" for r in rows)
+    job, = ex.regen_jobs(SMOKE, ex.load_or_pick_walkers(root)[:1], root=root)
+    assert ex.run_regen_job(job, progress=False) == 0  # regrowth of the first walker
     return root
 
 
@@ -156,6 +159,7 @@ def test_regrowth_job_writes_recovery(results):
     walkers = ex.load_or_pick_walkers(results)
     job, = ex.regen_jobs(SMOKE, walkers[:1], root=results)
     assert job.net == "ff" and job.out == results / "regen_walker_1_ff" / "seed_0"
+    assert job.complete  # run by the fixture; running it again is a no-op
     assert ex.run_regen_job(job, progress=False) == 0
     report = json.loads((job.out / "recovery.json").read_text())
     assert report["grid_cells"] == 729 and job.complete
