@@ -34,6 +34,7 @@ from pathlib import Path
 
 from mjregen import experiments as ex
 from mjregen.errors import MjregenError
+from mjregen.runs import RunFolderError
 
 STAGES = tuple(ex.CONDITIONS) + ("regen",)
 
@@ -120,7 +121,11 @@ def run(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     for i, job in enumerate(jobs, start=1):
         print(f"[{i}/{len(jobs)}] {job.command(workers=args.workers)}", flush=True)
-        summary = ex.run_evolution_job(job, workers=args.workers, progress=not args.quiet)
+        try:
+            summary = ex.run_evolution_job(job, workers=args.workers, progress=not args.quiet)
+        except RunFolderError as error:
+            raise MjregenError(f"{error} (a run started before mjregen's physics defaults or the "
+                               "scale changed cannot be resumed: use another --root)") from None
         print(f"    best fitness {summary.best_fitness:.4f} (generation {summary.best_generation})"
               f", {time.perf_counter() - start:.0f} s so far", flush=True)
     if regen:
