@@ -56,6 +56,10 @@ class _Bonds(ctypes.Structure):
         ("c", ctypes.c_void_p), ("rest", ctypes.c_void_p), ("plus", ctypes.c_void_p),
         ("minus", ctypes.c_void_p), ("lat2", ctypes.c_void_p), ("plus_c", ctypes.c_void_p),
         ("minus_c", ctypes.c_void_p), ("scratch", ctypes.c_void_p),
+        ("floor", ctypes.c_int), ("waves", ctypes.c_int),
+        ("fk", ctypes.c_void_p), ("fc", ctypes.c_void_p), ("mu_s", ctypes.c_void_p),
+        ("mu_k", ctypes.c_void_p), ("mass", ctypes.c_void_p), ("half_p", ctypes.c_void_p),
+        ("half_m", ctypes.c_void_p), ("strain_in", ctypes.c_void_p),
     ]
 
 
@@ -158,7 +162,8 @@ class NativeBonds:
     """The C-side description of one robot's bonds for one MjData; see `attach`."""
 
     def __init__(self, model: mujoco.MjModel, table, *, voxel_bodies: np.ndarray,
-                 dim: int, muscles=None, scene=None, actuation_start: float = 0.0) -> None:
+                 dim: int, muscles=None, scene=None, actuation_start: float = 0.0,
+                 floor=None, external_strains: bool = False) -> None:
         n_vox = len(voxel_bodies)
         qadr = np.full(n_vox, -1, dtype=np.int32)
         vadr = np.full(n_vox, -1, dtype=np.int32)
@@ -180,18 +185,33 @@ class NativeBonds:
         struct = _Bonds(dim=dim, nvox=n_vox, nten=len(table.stiffness), nmus=0, contract=1,
                         rate_drive=0, voxel_size=0.0, start=actuation_start, omega=0.0,
                         dt=float(model.opt.timestep))
+        if scene is not None:
+            struct.voxel_size = scene.voxel_size
+            struct.contract = int(scene.waveform == "contract")
+            struct.omega = 2.0 * np.pi * scene.frequency
+        if floor is not None:
+            if model.nuserdata < n_vox:
+                raise ValueError(f"the engine floor keeps a stick flag per voxel in "
+                                 f"MjData.userdata: the model needs nuserdata >= {n_vox}, "
+                                 f"has {model.nuserdata}")
+            self.arrays.update(fk=floor.stiffness, fc=floor.damping, mu_s=floor.static_friction,
+                               mu_k=floor.kinetic_friction, mass=floor.mass,
+                               half_p=floor.half_plus, half_m=floor.half_minus)
+            struct.floor = 1
+            struct.waves = int(np.any(floor.half_plus) or np.any(floor.half_minus))
         if muscles is not None and muscles.count:
             length = muscles.voxel_size
             plus, minus = length * muscles.weights[:, 0], length * muscles.weights[:, 1]
             self.arrays.update(plus=plus, minus=minus, lat2=muscles.lateral ** 2)
             struct.nmus = muscles.count
-            struct.voxel_size = length
-            struct.contract = int(scene.waveform == "contract")
-            struct.omega = 2.0 * np.pi * scene.frequency
+            struct.waves = 1
             if scene.damp_strain_rate:
                 damping = np.asarray(table.damping[: muscles.count])
                 self.arrays.update(plus_c=damping * plus, minus_c=damping * minus)
                 struct.rate_drive = 1
+        if external_strains:
+            # the caller writes (e+, e-) here before each step instead of the waveform
+            self.arrays["strain_in"] = np.zeros(2)
         for name, array in self.arrays.items():
             self.arrays[name] = np.ascontiguousarray(array)
             setattr(struct, name, self.arrays[name].ctypes.data)

@@ -122,6 +122,47 @@ class BondTable:
 
 
 @dataclass(frozen=True)
+class FloorTable:
+    """The paper engine's floor per voxel (`Scene.contact_shape` "engine"), body order.
+
+    Attributes (all ``(n_voxels,)`` float):
+      stiffness: N/m, penalty spring contact_stiffness·E·L.
+      damping: N·s/m, contact_damping·2 sqrt(m E L).
+      static_friction, kinetic_friction: coefficients.
+      mass: kg.
+      half_plus, half_minus: m, L/2 × the voxel's muscle strain amplitude if it is a "+" /
+        "−" muscle (its half size is L/2 + half_plus·e₊ + half_minus·e₋), else 0.
+    """
+
+    stiffness: np.ndarray
+    damping: np.ndarray
+    static_friction: np.ndarray
+    kinetic_friction: np.ndarray
+    mass: np.ndarray
+    half_plus: np.ndarray
+    half_minus: np.ndarray
+
+
+def _floor_table(physics: Physics, materials: list[Material], masses: np.ndarray) -> FloorTable:
+    """`FloorTable` of voxels with these materials and masses."""
+    scene = physics.scene
+    L = scene.voxel_size
+    props = [physics.materials[m] for m in materials]
+    EL = np.array([p.youngs_modulus * L for p in props])
+    amplitude = np.array([0.5 * L * p.strain_amplitude for p in props])
+    sign = np.array([p.phase_sign for p in props])
+    return FloorTable(
+        stiffness=scene.contact_stiffness * EL,
+        damping=scene.contact_damping * 2.0 * np.sqrt(masses * EL),
+        static_friction=np.array([p.friction for p in props], dtype=float),
+        kinetic_friction=np.array([p.friction if p.kinetic_friction is None
+                                   else p.kinetic_friction for p in props], dtype=float),
+        mass=np.asarray(masses, dtype=float),
+        half_plus=np.where(sign > 0, amplitude, 0.0),
+        half_minus=np.where(sign < 0, amplitude, 0.0))
+
+
+@dataclass(frozen=True)
 class CompiledRobot:
     """A robot compiled to MuJoCo.
 
@@ -140,6 +181,7 @@ class CompiledRobot:
       native_model: with the native backend, the model that `simulation_of` steps: the same
         bodies, joints and contacts without sites, tendons or actuators (bond forces come
         from `mjregen.bonds_native`); None with the tendon backend.
+      floor: with contact_shape "engine", the floor computed in the native loop; else None.
 
     With the native backend the tendon `spec` and `model` are built on first access.
     """
@@ -154,6 +196,7 @@ class CompiledRobot:
     bonds: BondTable
     bond_backend: str = "tendon"
     native_model: mujoco.MjModel | None = None
+    floor: FloorTable | None = None
     _tendon: dict = field(default_factory=dict, repr=False, compare=False)
 
     @property
@@ -181,7 +224,9 @@ class CompiledRobot:
 
     def to_xml(self) -> str:
         """MJCF text that plain `mujoco.MjModel.from_xml_string` loads into the same model
-        (the tendon model, whatever the backend)."""
+        (the tendon model, whatever the backend). With contact_shape "engine" its floor is
+        MuJoCo "point" contacts with the same stiffness, damping and static friction, the
+        nearest plain MuJoCo has (no kinetic friction, no pulling damper)."""
         return self.spec.to_xml()
 
 
@@ -196,8 +241,8 @@ def resolve_bond_backend(scene) -> str:
         return "tendon"
     from mjregen import bonds_native
 
-    if scene.bond_backend == "native":
-        bonds_native._load()
+    if scene.bond_backend == "native" or (scene.contact_shape == "engine" and scene.floor):
+        bonds_native._load()  # the engine floor exists only in the native loop: no fallback
         return "native"
     return "native" if scene.integrator == "euler" and bonds_native.available() else "tendon"
 
@@ -278,7 +323,8 @@ def compile_robot(
         mass = physics.voxel_mass(Material.SOFT)
         drag = 2.0 * scene.drag_ratio * math.sqrt(mass * soft.youngs_modulus * L)
         spec.option.viscosity = _mjcf(drag / (3.0 * math.pi * L))  # Stokes: 3πμd, d = L
-    point = scene.contact_shape == "point"
+    engine_floor = scene.contact_shape == "engine" and not tendons and scene.floor
+    point = scene.contact_shape == "point" or (scene.contact_shape == "engine" and tendons)
     floor_geom = FLOOR
     if scene.floor:
         spec.worldbody.add_geom(name=FLOOR, type=mujoco.mjtGeom.mjGEOM_PLANE,
@@ -324,7 +370,7 @@ def compile_robot(
             body.add_geom(name=contact_geom, type=mujoco.mjtGeom.mjGEOM_SPHERE,
                           size=_mjcf([POINT_RADIUS * L, 0.0, 0.0]), mass=0.0, contype=0,
                           conaffinity=0, group=3)
-        if scene.floor and index not in clamped_set:
+        if scene.floor and index not in clamped_set and not engine_floor:
             spec.add_pair(geomname1=floor_geom, geomname2=contact_geom, condim=3,
                           friction=_mjcf([props.friction, props.friction, 0.0, 0.0, 0.0]),
                           solref=solref, solimp=solimp)
@@ -382,6 +428,8 @@ def compile_robot(
             spec.add_actuator(name=f"m{k}", trntype=mujoco.mjtTrn.mjTRN_TENDON, target=f"t{k}",
                               gainprm=[1.0] + [0.0] * 9)
     spec.option.timestep = _mjcf(physics.timestep(max_k_per_m))
+    if engine_floor:
+        spec.nuserdata = len(voxels)  # the floor's stick flags
     model = spec.compile()
     table = BondTable(ends=np.array(ends, dtype=int).reshape(-1, 2),
                       offsets=np.array(offsets, dtype=float).reshape(-1, 2, 3),
@@ -404,7 +452,9 @@ def compile_robot(
         robot=robot, physics=physics, voxel_index=grid_index,
         body_ids=np.array([model.body(body.name).id for body in bodies]),
         masses=masses, muscles=muscles, n_bonds=len(bonds), bonds=table,
-        bond_backend=backend, native_model=None if tendons else model, _tendon=lazy)
+        bond_backend=backend, native_model=None if tendons else model,
+        floor=_floor_table(physics, [m for _, m in voxels], masses) if engine_floor else None,
+        _tendon=lazy)
 
 
 def _mjcf(values: float | Sequence[float] | np.ndarray) -> float | list[float]:

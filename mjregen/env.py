@@ -83,8 +83,17 @@ class RobotEnv(dm_env.Environment):
         self.control_timestep = self.n_substeps * dt
         self.n_control_steps = max(1, round(duration / self.control_timestep))
         self._n_settle = round(settle / dt)
-        self._model = copy.copy(compiled.model)  # its muscle rest lengths are rewritten
-        self._sim = Simulation(self._model, scene=scene, muscles=None, actuation_start=0.0)
+        if compiled.native_model is not None:
+            # native bonds (and the engine floor): the strains go straight to the C loop
+            self._model = compiled.native_model
+            self._sim = Simulation(self._model, scene=scene, muscles=compiled.muscles,
+                                   actuation_start=0.0, bonds=compiled.bonds,
+                                   voxel_bodies=compiled.body_ids, floor=compiled.floor,
+                                   external_strains=True)
+        else:
+            self._model = copy.copy(compiled.model)  # its muscle rest lengths are rewritten
+            self._sim = Simulation(self._model, scene=scene, muscles=None,
+                                   actuation_start=0.0)
         self._planar = [0, 1] if compiled.robot.dim == 3 else [0]
         self._voxel = scene.voxel_size
         self._high = 0.0 if scene.waveform == "contract" else 1.0
@@ -159,8 +168,11 @@ class RobotEnv(dm_env.Environment):
         return dm_env.transition(reward, observation)
 
     def _set_strains(self, action: np.ndarray) -> None:
-        """Write the driven tendons' rest lengths, with the operations of `Simulation.run`."""
-        if len(self._plus):
+        """Write the driven tendons' rest lengths, with the operations of `Simulation.run`
+        (native bonds: hand the strains to the C loop)."""
+        if self._sim.native:
+            self._sim.strain_input[:] = action
+        elif len(self._plus):
             axial = self._voxel + self._plus * action[0] + self._minus * action[1]
             rest = np.sqrt(axial * axial + self._lateral2)
             self._model.tendon_lengthspring[: len(rest)] = rest[:, None]

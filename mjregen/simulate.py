@@ -19,7 +19,7 @@ import mujoco
 import numpy as np
 from numpy.typing import ArrayLike
 
-from mjregen.compile import BondTable, CompiledRobot, MuscleTendons, compile_robot
+from mjregen.compile import BondTable, CompiledRobot, FloorTable, MuscleTendons, compile_robot
 from mjregen.grid import Robot
 from mjregen.physics import Physics, PhysicsParameterError, Scene
 
@@ -86,12 +86,17 @@ class Simulation:
       bonds: the robot's `BondTable` to simulate natively (its `model` must then be the
         tendon-free `native_model`); None: the model's own tendons carry the bonds.
       voxel_bodies: with `bonds`, the voxels' body ids (`CompiledRobot.body_ids`).
+      floor: with `bonds`, the engine floor to compute in the same loop (`FloorTable`;
+        the model then has no floor contacts).
+      external_strains: with `bonds`, the muscle strains (e₊, e₋) come from
+        `strain_input`, written by the caller (e.g. a controller), not from the waveform.
     """
 
     def __init__(self, model: mujoco.MjModel, *, scene: Scene,
                  muscles: MuscleTendons | None, actuation_start: float,
                  bonds: BondTable | None = None,
-                 voxel_bodies: np.ndarray | None = None) -> None:
+                 voxel_bodies: np.ndarray | None = None,
+                 floor: FloorTable | None = None, external_strains: bool = False) -> None:
         self.model = model
         self.data = mujoco.MjData(model)
         self.steps = 0
@@ -99,6 +104,7 @@ class Simulation:
         self._start = actuation_start
         self._muscles = muscles
         self.native = bonds is not None
+        self.strain_input: np.ndarray | None = None
         if self.native:
             from mjregen.bonds_native import NativeBonds
 
@@ -109,9 +115,11 @@ class Simulation:
                 raise ValueError("native bonds need voxel_bodies (CompiledRobot.body_ids)")
             dim = 3 if model.jnt_type.size == 0 or mujoco.mjtJoint.mjJNT_FREE in model.jnt_type \
                 else 2
-            NativeBonds(model, bonds, voxel_bodies=np.asarray(voxel_bodies), dim=dim,
-                        muscles=muscles, scene=scene,
-                        actuation_start=actuation_start).attach(self, self.data)
+            native = NativeBonds(model, bonds, voxel_bodies=np.asarray(voxel_bodies), dim=dim,
+                                 muscles=muscles, scene=scene, actuation_start=actuation_start,
+                                 floor=floor, external_strains=external_strains)
+            native.attach(self, self.data)
+            self.strain_input = native.arrays.get("strain_in")  # (2,) or None
         elif muscles is not None:
             length = muscles.voxel_size
             self._base = np.full(muscles.count, length)
@@ -226,7 +234,7 @@ def simulation_of(compiled: CompiledRobot) -> Simulation:
     if compiled.native_model is not None:
         return Simulation(compiled.native_model, scene=scene, muscles=compiled.muscles,
                           actuation_start=settle, bonds=compiled.bonds,
-                          voxel_bodies=compiled.body_ids)
+                          voxel_bodies=compiled.body_ids, floor=compiled.floor)
     return Simulation(compiled.model, scene=scene, muscles=compiled.muscles,
                       actuation_start=settle)
 

@@ -1,5 +1,6 @@
 """Compiler: model structure, placement, only what the robot needs, MJCF export."""
 
+import math
 from pathlib import Path
 
 import mujoco
@@ -17,7 +18,7 @@ L = 1e-3
 
 def test_3d_structure_body_per_voxel_free_joint_8_tendons_per_bond():
     robot = Robot.from_body(np.ones((3, 2, 2), dtype=np.int8))  # 12 voxels, 20 bonds
-    compiled = compile_robot(robot)
+    compiled = compile_robot(robot, physics=Physics().replace_scene(self_collision=False))
     model = compiled.model
     assert compiled.n_bonds == 2 * 2 * 2 + 3 * 2 * 1 + 3 * 1 * 2 == 20
     assert model.nbody == 12 + 1 and model.njnt == 12
@@ -27,6 +28,22 @@ def test_3d_structure_body_per_voxel_free_joint_8_tendons_per_bond():
     assert model.nu == 0 and compiled.muscles is None  # no muscle machinery without muscles
     assert np.all(model.geom_contype == 0) and np.all(model.geom_conaffinity == 0)
     assert np.allclose(compiled.masses, 1e-3)
+
+
+def test_engine_floor_has_no_mujoco_floor_contacts_and_collides_surface_voxels():
+    """Default physics: the floor is computed natively (no pairs; a stick flag per voxel in
+    MjData.userdata); self-collision spheres of 0.625 L on surface voxels only."""
+    robot = Robot.from_body(np.ones((3, 3, 3), dtype=np.int8))  # 26 surface voxels + 1
+    compiled = compile_robot(robot)
+    model = compiled.native_model
+    assert compiled.floor is not None and model.npair == 0 and model.nuserdata == 27
+    spheres = model.geom_contype == 1
+    assert spheres.sum() == 26 and np.all(model.geom_conaffinity[spheres] == 1)
+    assert np.allclose(model.geom_size[spheres, 0], 0.625e-3)
+    assert compiled.floor.stiffness == pytest.approx(np.full(27, 2.0 * 1e7 * 1e-3))
+    assert np.all(compiled.floor.static_friction == 1.0)
+    assert np.all(compiled.floor.kinetic_friction == 0.5)
+    assert compiled.model.npair == 27  # the exported MJCF: "point" contacts instead
 
 
 def test_2d_structure_slide_slide_hinge_4_tendons_per_bond():
@@ -63,12 +80,13 @@ def test_bonds_start_unstressed():
 
 
 def test_timestep_from_stiffest_bond_present():
-    paper_rule = Physics().replace_scene(timestep_safety=1.0)
-    soft, hard, lone = (compile_robot(Robot.from_body(body.astype(np.int8)), physics=paper_rule)
+    limit = Physics().replace_scene(timestep_safety=1.0)
+    soft, hard, lone = (compile_robot(Robot.from_body(body.astype(np.int8)), physics=limit)
                         for body in (np.ones((2, 1, 1)), np.full((2, 1, 1), 2), np.ones((1, 1, 1))))
-    # the paper engine's steps (cases.md): 4.5296e-5 s soft, 2.0257e-5 s with hard bonds
-    assert soft.timestep == pytest.approx(4.5296e-5, rel=1e-4)
-    assert hard.timestep == pytest.approx(2.0257e-5, rel=1e-4)
+    # Euler's limit for shear-rigid bonds at ζ 0.4 (tests/test_physics_params.py):
+    # 0.118271 / sqrt(E L / m), E = 1e7 Pa soft; a hard–hard bond is 5× stiffer
+    assert soft.timestep == pytest.approx(0.118271 / math.sqrt(1e7), rel=1e-4)
+    assert hard.timestep == pytest.approx(soft.timestep / math.sqrt(5), rel=1e-4)
     assert lone.timestep == pytest.approx(soft.timestep, rel=1e-5)
     default = compile_robot(Robot.from_body(np.ones((2, 1, 1), dtype=np.int8)))
     assert default.timestep == pytest.approx(0.75 * soft.timestep, rel=1e-5)

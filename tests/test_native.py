@@ -21,6 +21,9 @@ pytestmark = pytest.mark.skipif(not bonds_native.available(),
 SLAB = np.ones((4, 3, 2), dtype=np.int8)
 SLAB[:, :, 0] = np.where(np.arange(4)[:, None] % 2 == 0, 3, 4)
 SLAB[1, 1, 1] = 2
+# the tendon model (the exported MJCF) has MuJoCo contacts: compare backends on point contacts
+# (the default "engine" floor exists only in the native loop; tests/test_engine_floor.py)
+CONTACTS = Physics().replace_scene(contact_shape="point")
 
 
 def _both(robot, physics, steps, clamped=(), elevation=0.0):
@@ -38,9 +41,9 @@ def _both(robot, physics, steps, clamped=(), elevation=0.0):
 
 
 @pytest.mark.parametrize("physics", [
-    Physics(),
-    Physics().replace_scene(damp_strain_rate=True),
-    Physics().replace_scene(waveform="symmetric", bond_damping_ratio=0.4),
+    CONTACTS,
+    CONTACTS.replace_scene(damp_strain_rate=True),
+    CONTACTS.replace_scene(waveform="symmetric", bond_model="timoshenko", self_collision=False),
 ], ids=["default", "strain_rate", "symmetric"])
 @pytest.mark.parametrize("grid", [SLAB, SLAB[:, 1, :]], ids=["3d", "2d"])
 def test_walking_robot_same_motion(grid, physics):
@@ -67,7 +70,7 @@ def test_clamped_hard_cantilever_same_motion(dim):
 
 def test_simulate_results_agree_and_export_is_the_tendon_model():
     robot = Robot.from_body(SLAB)
-    results = {b: simulate(robot, physics=Physics().replace_scene(bond_backend=b),
+    results = {b: simulate(robot, physics=CONTACTS.replace_scene(bond_backend=b),
                            duration=0.03) for b in ("tendon", "native")}
     assert results["native"].steps == results["tendon"].steps
     assert results["native"].distance == pytest.approx(results["tendon"].distance, rel=1e-6)
@@ -116,6 +119,6 @@ def test_threads_give_the_serial_result():
 def test_native_needs_euler():
     with pytest.raises(PhysicsParameterError, match="euler"):
         Physics().replace_scene(bond_backend="native", integrator="rk4")
-    compiled = compile_robot(Robot.from_body(SLAB), physics=Physics().replace_scene(
+    compiled = compile_robot(Robot.from_body(SLAB), physics=CONTACTS.replace_scene(
         integrator="rk4", bond_backend="auto"))
     assert compiled.bond_backend == "tendon"  # auto falls back

@@ -5,6 +5,11 @@
    as forces added to qfrc_passive from MuJoCo's passive-force callback, on a model that has
    the same bodies but no sites or tendons. MuJoCo keeps bodies, contacts and integration.
 
+   Optionally (`floor`) it also computes the paper engine's floor for every voxel (penalty
+   spring and damper on the centre's penetration below the voxel's current half size,
+   static/kinetic friction with a stick state per voxel kept in `d->userdata`), so MuJoCo
+   then has no floor contacts at all.
+
    State is per mjData: `mjr_register(d, bonds)` before stepping, `mjr_unregister(d)` after;
    the callback does nothing for an unregistered mjData (so other models are unaffected).
    Only struct fields of mjModel/mjData are read (no MuJoCo function is called), so this file
@@ -42,6 +47,16 @@ typedef struct {
   const double* plus_c; /* (nmus) c L w+ (rate drive) */
   const double* minus_c;/* (nmus) c L w- (rate drive) */
   double* scratch;      /* (nvox, 24): pos 3, R 9, vel 3, omega 3, force 3, torque 3 */
+  int floor;            /* 1: the paper engine's floor (needs nuserdata >= nvox) */
+  int waves;            /* 1: some voxel or bond is a muscle (compute the waveform) */
+  const double* fk;     /* (nvox) N/m, floor penalty stiffness */
+  const double* fc;     /* (nvox) N s/m, floor damping (may pull, as in the engine) */
+  const double* mu_s;   /* (nvox) static friction coefficient */
+  const double* mu_k;   /* (nvox) kinetic friction coefficient */
+  const double* mass;   /* (nvox) kg */
+  const double* half_p; /* (nvox) L/2 w+ of the voxel's own scale (muscle +), else 0 */
+  const double* half_m; /* (nvox) L/2 w- (muscle -), else 0 */
+  const double* strain_in; /* NULL, or (2) strains (e+, e-) set by the caller (no waveform) */
 } mjrBonds;
 
 typedef struct {
@@ -230,14 +245,85 @@ static void voxel_states(const mjrBonds* b, const mjData* d) {
   }
 }
 
+/* The paper engine's floor (Voxelyze CVX_Voxel::floorForce and the friction part of
+   timeStep), added to the voxels' forces in scratch. Per voxel touching the floor (centre
+   below its current half size, which shrinks with the voxel's own muscle strain):
+   normal force k*pen - c*vz on the centre (no moment; the damper may pull); friction from
+   the spring part N = k*pen: a sticking voxel stays put (its horizontal velocity is
+   cancelled within the step) until the other horizontal forces exceed mu_s*N; a sliding
+   one feels mu_k*N against its horizontal velocity and sticks when that would stop it
+   within the step (work-energy test of the engine). Other horizontal forces are the bonds',
+   what qfrc_passive already holds (drag), qfrc_applied and gravity (voxel bodies have their
+   centre of mass at the joint, so no other bias force acts on their translation); contact
+   forces of self-collision are not known here (MuJoCo solves them later). Stick flags live in d->userdata[0 .. nvox-1]. */
+static void engine_floor(const mjrBonds* b, const mjModel* mdl, mjData* d, double ep,
+                         double em) {
+  int planar = b->dim == 3;
+  const double* gravity = mdl->opt.gravity;
+  for (int v = 0; v < b->nvox; v++) {
+    int va = b->vadr[v];
+    if (va < 0) continue;
+    double* s = b->scratch + 24 * v;
+    double* stick = d->userdata + v;
+    double half = 0.5 * b->voxel_size + b->half_p[v] * ep + b->half_m[v] * em;
+    double pen = half - s[2];
+    if (pen < 0.0) {
+      *stick = 0.0;
+      continue;
+    }
+    const double *vel = s + 12;
+    double *F = s + 18;
+    double normal = b->fk[v] * pen;
+    F[2] += normal - b->fc[v] * vel[2];
+    double m = b->mass[v], dt = b->dt;
+    /* bonds + passive (drag) + applied + gravity: the horizontal forces besides friction */
+    double other[2] = {F[0] + d->qfrc_passive[va] + d->qfrc_applied[va] + m * gravity[0],
+                       planar ? F[1] + d->qfrc_passive[va + 1] + d->qfrc_applied[va + 1]
+                                + m * gravity[1] : 0.0};
+    double vh[2] = {vel[0], planar ? vel[1] : 0.0};
+    double stop[2] = {-other[0] - m * vh[0] / dt, -other[1] - m * vh[1] / dt};
+    if (*stick != 0.0) {
+      double limit = b->mu_s[v] * normal;
+      if (other[0] * other[0] + other[1] * other[1] > limit * limit) {
+        *stick = 0.0;  /* breaks loose: this step's forces start the motion, no friction */
+      } else {
+        F[0] += stop[0];
+        F[1] += stop[1];
+      }
+      continue;
+    }
+    double speed = sqrt(vh[0] * vh[0] + vh[1] * vh[1]);
+    double fric[2] = {0.0, 0.0};
+    if (speed > 0.0) {
+      fric[0] = -b->mu_k[v] * normal * vh[0] / speed;
+      fric[1] = -b->mu_k[v] * normal * vh[1] / speed;
+    }
+    /* momentum after this step, the step's displacement, and the engine's stop test */
+    double p0 = m * vh[0] + dt * (other[0] + fric[0]);
+    double p1 = m * vh[1] + dt * (other[1] + fric[1]);
+    double work = (fric[0] * p0 + fric[1] * p1) * dt / m;
+    double kinetic = 0.5 * (p0 * p0 + p1 * p1) / m;
+    if (kinetic + work <= 0.0) {
+      *stick = 1.0;
+      F[0] += stop[0];
+      F[1] += stop[1];
+    } else {
+      F[0] += fric[0];
+      F[1] += fric[1];
+    }
+  }
+}
+
 void mjr_passive(const mjModel* m, mjData* d) {
-  (void)m;
   const mjrBonds* b = lookup(d);
   if (!b) return;
   voxel_states(b, d);
 
   double t = 0.0, ep = 0.0, em = 0.0, rp = 0.0, rm = 0.0;
-  if (b->nmus) {
+  if (b->strain_in) {
+    ep = b->strain_in[0];
+    em = b->strain_in[1];
+  } else if (b->waves) {
     double step = floor(d->time / b->dt + 0.5);
     t = step * b->dt;
     strains(b, t, &ep, &em);
@@ -282,6 +368,8 @@ void mjr_passive(const mjModel* m, mjData* d) {
     cross(ri, F, tmp);
     for (int a = 0; a < 3; a++) ti[a] -= tmp[a];
   }
+
+  if (b->floor && m->nuserdata >= b->nvox) engine_floor(b, m, d, ep, em);
 
   double* qfrc = d->qfrc_passive;
   for (int v = 0; v < b->nvox; v++) {

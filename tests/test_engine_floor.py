@@ -1,0 +1,127 @@
+"""The paper engine's floor (contact_shape "engine", the default) against closed-form physics.
+
+One voxel, L = 1 mm, m = 1 g, E = 1e7 Pa: floor spring k = 2·E·L = 2e4 N/m on the centre's
+penetration below the half size, static friction 1.0, kinetic 0.5. Drag off unless stated,
+so the numbers are exact mechanics.
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+from mjregen import bonds_native
+from mjregen.compile import compile_robot
+from mjregen.grid import Robot
+from mjregen.physics import Physics, PhysicsParameterError
+from mjregen.simulate import simulation_of
+
+pytestmark = pytest.mark.skipif(not bonds_native.available(),
+                                reason="the engine floor is computed by the native backend")
+
+L, M, G = 1e-3, 1e-3, 27.468
+K_FLOOR = 2.0 * 1e7 * L
+NO_DRAG = Physics().replace_scene(drag_ratio=0.0, settle_time=0.0)
+
+
+def voxel(code: int = 1, physics: Physics = NO_DRAG):
+    compiled = compile_robot(Robot.from_body(np.full((1, 1, 1), code, dtype=np.int8)),
+                             physics=physics)
+    return compiled, simulation_of(compiled)
+
+
+def run(sim, seconds: float) -> None:
+    assert sim.run(round(seconds / sim.model.opt.timestep)) == ""
+
+
+def test_rests_at_the_static_penetration_whatever_its_orientation():
+    """Centre height L/2 − m g / k = 0.49863 mm (the engine's, cases.md), tilted or not:
+    the floor acts on the centre, not on the box's corners."""
+    for tilt in (0.0, 0.3):
+        compiled, sim = voxel()
+        sim.data.qpos[3:7] = [math.cos(tilt), math.sin(tilt), 0.0, 0.0]
+        run(sim, 0.05)
+        assert sim.data.qpos[2] == pytest.approx(L / 2 - M * G / K_FLOOR, abs=1e-9)
+        assert np.abs(sim.data.qvel).max() < 1e-6
+
+
+def test_kicked_voxel_slides_on_kinetic_friction_then_sticks_dead():
+    """v0 = 0.1 m/s: decelerates at μk g, slides v0² / (2 μk g) = 0.364 mm in v0/(μk g) =
+    7.3 ms, then static friction holds it exactly still."""
+    compiled, sim = voxel()
+    run(sim, 0.02)
+    x0 = sim.data.qpos[0]
+    assert sim.data.userdata[0] == 1.0  # resting: static friction holds it
+    # a kick is an impulse from outside: release the stick state (like the engine, a sticking
+    # voxel's horizontal momentum is zeroed every step)
+    sim.data.qvel[0], sim.data.userdata[0] = 0.1, 0.0
+    run(sim, 0.004)
+    assert sim.data.qvel[0] == pytest.approx(0.1 - 0.5 * G * 0.004, rel=0.01)
+    run(sim, 0.02)
+    assert sim.data.qpos[0] - x0 == pytest.approx(0.1**2 / (2 * 0.5 * G), rel=0.01)
+    assert sim.data.qvel[0] == 0.0 and sim.data.userdata[0] == 1.0  # stuck
+    x_stop = sim.data.qpos[0]
+    run(sim, 0.02)
+    assert sim.data.qpos[0] == x_stop
+
+
+def tilt(sim, degrees: float) -> None:
+    theta = math.radians(degrees)
+    sim.model.opt.gravity[:] = [G * math.sin(theta), 0.0, -G * math.cos(theta)]
+
+
+@pytest.mark.parametrize("degrees", [40.0, 50.0])
+def test_inclined_floor_holds_below_the_static_angle_and_slides_above(degrees):
+    """A resting voxel, then gravity tilted by θ: static friction 1.0 holds while
+    tan θ < 1 (40°: not a nanometre of creep); at 50° it breaks loose and slides with
+    acceleration g (sin θ − μk cos θ)."""
+    compiled, sim = voxel()
+    run(sim, 0.02)
+    tilt(sim, degrees)
+    run(sim, 0.01)
+    x1, v1 = sim.data.qpos[0], sim.data.qvel[0]
+    run(sim, 0.02)
+    theta = math.radians(degrees)
+    if math.tan(theta) < 1.0:
+        assert sim.data.qpos[0] == x1 and sim.data.qvel[0] == 0.0
+        return
+    acceleration = (sim.data.qvel[0] - v1) / 0.02
+    assert acceleration == pytest.approx(G * (math.sin(theta) - 0.5 * math.cos(theta)),
+                                         rel=0.01)
+
+
+def test_stick_slip_hysteresis_a_sliding_voxel_keeps_sliding_where_a_resting_one_holds():
+    """At 40° (μk < tan θ < μs) a resting voxel holds (previous test) but a moving one
+    accelerates at g (sin θ − μk cos θ): kinetic friction cannot stop it."""
+    compiled, sim = voxel()
+    run(sim, 0.02)
+    tilt(sim, 40.0)
+    sim.data.qvel[0], sim.data.userdata[0] = 0.01, 0.0
+    run(sim, 0.005)
+    v1 = sim.data.qvel[0]
+    run(sim, 0.02)
+    theta = math.radians(40.0)
+    acceleration = (sim.data.qvel[0] - v1) / 0.02
+    assert acceleration == pytest.approx(G * (math.sin(theta) - 0.5 * math.cos(theta)),
+                                         rel=0.01)
+
+
+def test_contracting_muscle_voxel_sinks_with_its_half_size():
+    """A lone red voxel: its floor half size follows L/2 (1 + 0.14 min(0, sin 2π f t)), so
+    its centre drops to 0.43 mm − m g / k at full contraction (the engine's muscles feet)."""
+    compiled, sim = voxel(code=3)
+    dt = compiled.timestep
+    heights = []
+    for _ in range(round(0.05 / dt)):
+        sim.run(1)
+        heights.append(sim.data.qpos[2])
+    late = np.array(heights[round(0.025 / dt):])
+    assert late.min() == pytest.approx(0.86 * L / 2 - M * G / K_FLOOR, rel=0.01)
+    assert late.max() == pytest.approx(L / 2 - M * G / K_FLOOR, rel=0.01)
+
+
+def test_engine_floor_needs_the_native_backend():
+    with pytest.raises(PhysicsParameterError, match="native"):
+        Physics().replace_scene(bond_backend="tendon")
+    # without a floor there is nothing to compute natively: the tendon backend is fine
+    assert Physics().replace_scene(bond_backend="tendon", floor=False).scene.floor is False
