@@ -24,12 +24,13 @@ from pathlib import Path
 
 import numpy as np
 
-from mjregen.physics import Physics, legacy_physics, paper_physics
+from mjregen.physics import Physics, legacy_physics, paper_physics, sphere_physics
 from mjregen.reference import CASES, REFERENCE, ROBOT_FILES, CaseResult, load_csv
 
 ROOT = Path(__file__).resolve().parent.parent
 DEFAULT_REFERENCE = Path("/work/shared/paper/reference")
-PRESETS = {"default": Physics, "paper": paper_physics, "legacy": legacy_physics}
+PRESETS = {"default": Physics, "paper": paper_physics, "legacy": legacy_physics,
+           "sphere": sphere_physics}
 UNITS = {"distance": (1.0, "vox"), "sag_max_t": (1e3, "ms"), "stop_after": (1e3, "ms")}
 
 

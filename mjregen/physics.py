@@ -2,11 +2,13 @@
 
 Defaults follow the paper's code (Voxelyze settings, see SEED_CODE_FACTS.md): 1 mm voxels of
 1 g, E = 1e7 Pa (soft and muscle) or 5e7 Pa (hard), Poisson ratio 0.35, gravity 27.468 m/s²
-downwards, 40 Hz actuation with ±14 % linear strain, contract-only, bond damping ratio 1.
-`paper_physics` is the preset closest to the paper engine's reference trajectories
-(docs/fidelity.md); the default keeps box contacts (see there why).
-The time-step safety factor (0.75) is ours: the paper engine's rule (factor 1) is unstable
-for MuJoCo tendon bonds with ζ = 1 (see `Scene`).
+downwards, 40 Hz actuation with ±14 % linear strain, contract-only; and the modelling choices
+that make the paper's robots walk here as in the paper engine (docs/fidelity.md): the
+engine's floor (static/kinetic friction 1.0/0.5), shear-rigid beam bonds, self-collision,
+bond damping ratio 0.4, drag 0.001. The default *is* `paper_physics()`; `sphere_physics`
+and `legacy_physics` are the earlier models, kept for comparison.
+The time step is ours: 0.75 of semi-implicit Euler's stability limit for the bond network
+(`Physics.timestep`); the paper engine's rule is unstable for these bonds with ζ = 1.
 
 Everything here is plain, frozen data validated on construction; MuJoCo appears only in
 `mjregen.compile`.
@@ -25,8 +27,9 @@ from mjregen.grid import Material
 WAVEFORMS = ("contract", "symmetric")
 INTEGRATORS = ("euler", "rk4")
 BOND_MODELS = ("timoshenko", "euler_bernoulli")
-CONTACT_SHAPES = ("box", "sphere", "point")
+CONTACT_SHAPES = ("box", "sphere", "point", "engine")
 BOND_BACKENDS = ("auto", "native", "tendon")
+MODE_RATIO = 2.7  # fastest bond-network mode / a Timoshenko bond's sqrt(k/m) (`Physics.timestep`)
 POINT_RADIUS = 1e-6  # contact_shape "point": radius of the centre sphere, in voxel lengths
 
 
@@ -59,10 +62,11 @@ class MaterialProperties:
       youngs_modulus: E in Pa (> 0).
       density: kg/m³ (> 0); a voxel's mass is density × voxel_size³.
       poisson_ratio: ν in [0, 0.5); sets the shear modulus G = E / (2 (1 + ν)).
-      friction: Coulomb coefficient against the floor (>= 0). MuJoCo has one coefficient;
-        the default is the paper engine's dynamic friction 0.5, which reproduces its slide
-        cases; `paper_physics` uses its static 1.0, with which the robots' feet stick and
-        walk about twice as far (docs/fidelity.md).
+      friction: Coulomb coefficient against the floor (>= 0). With contact_shape "engine"
+        (the default) the static coefficient (the engine's 1.0) and `kinetic_friction` the
+        sliding one; MuJoCo's contact shapes have one coefficient, this one.
+      kinetic_friction: sliding coefficient of the "engine" floor (the paper engine's 0.5);
+        None = `friction`. Other contact shapes use `friction` only (MuJoCo has one).
       strain_amplitude: muscle linear strain amplitude (0 = passive, < 1); the voxel's
         linear scale is 1 + amplitude × phase_sign × sin(2π f t) (clamped, see `Scene`).
       phase_sign: +1, −1 (counter-phase) or 0 (passive).
@@ -71,7 +75,8 @@ class MaterialProperties:
     youngs_modulus: float
     density: float = 1e6
     poisson_ratio: float = 0.35
-    friction: float = 0.5
+    friction: float = 1.0
+    kinetic_friction: float | None = 0.5
     strain_amplitude: float = 0.0
     phase_sign: int = 0
 
@@ -81,6 +86,8 @@ class MaterialProperties:
         _check("poisson_ratio", self.poisson_ratio, low=0.0, high=0.5, low_open=False,
                high_open=True)
         _check("friction", self.friction, low=0.0, low_open=False)
+        if self.kinetic_friction is not None:
+            _check("kinetic_friction", self.kinetic_friction, low=0.0, low_open=False)
         _check("strain_amplitude", self.strain_amplitude, low=0.0, high=1.0, low_open=False,
                high_open=True)
         if self.phase_sign not in (-1, 0, 1) or isinstance(self.phase_sign, bool):
@@ -132,10 +139,9 @@ class Scene:
       bond_damping_ratio: ζ of the bonds, relative to one voxel's mass (the paper's
         convention: c = 2 ζ sqrt(m k)).
       integrator: "euler" (MuJoCo's semi-implicit Euler) or "rk4".
-      timestep_safety: factor on the paper engine's time-step rule (`Physics.timestep`).
-        With ζ = 1 the explicit bond damping sets the limit: blocks with interior voxels
-        (6 bonds; 3D 4³, 5³, 7³ blocks, a 7×4×4 slab) went unstable at 0.95–1.0 and ran
-        at 0.9; the default 0.75 keeps a margin. A lower ζ allows more.
+      timestep_safety: fraction of Euler's stability limit for the bond network
+        (`Physics.timestep`); the default 0.75 keeps a margin for topologies stiffer than
+        the blocks the limit was measured on.
       floor: whether the floor plane (z = 0) exists.
       contact_timeconst: s, MuJoCo solref time constant of voxel–floor contacts.
       contact_dampratio: MuJoCo solref damping ratio of voxel–floor contacts.
@@ -156,6 +162,15 @@ class Scene:
         so a voxel whose contact sticks can still roll its centre along). "point" uses a
         hidden collision plane at height L/2 (minus POINT_RADIUS·L) and a tiny sphere of
         radius POINT_RADIUS·L at each voxel's centre.
+        "engine": the paper engine's floor computed in the native bond loop
+        (`mjregen.bonds_native`), no MuJoCo contact at all: a voxel touches when its centre
+        is lower than its current half size (L/2, shrinking with its own muscle strain),
+        the normal force contact_stiffness·E·L·penetration − damping·v_z acts on the
+        centre (no moment; the damper may pull, as in the engine), and friction has two
+        regimes: a sticking voxel keeps its place until the other horizontal forces exceed
+        `friction`·N (static), a sliding one feels `kinetic_friction`·N and sticks again
+        when that would stop it within a step. Needs the native backend (the exported MJCF
+        approximates it with "point" contacts, the nearest MuJoCo has).
       contact_stiffness: None (use contact_timeconst / dampratio / width) or the floor's
         penalty stiffness per voxel in units of the voxel's E·L (the paper engine: 2).
       contact_damping: with contact_stiffness, the floor's damping in units of
@@ -187,21 +202,21 @@ class Scene:
     waveform: str = "contract"
     settle_time: float | None = None
     measured_time: float | None = None
-    bond_damping_ratio: float = 1.0
+    bond_damping_ratio: float = 0.4
     integrator: str = "euler"
     timestep_safety: float = 0.75
     floor: bool = True
     contact_timeconst: float = 3e-4
     contact_dampratio: float = 1.0
     contact_width: float = 1e-5
-    bond_model: str = "timoshenko"
-    drag_ratio: float = 0.0
-    contact_shape: str = "box"
-    contact_stiffness: float | None = None
+    bond_model: str = "euler_bernoulli"
+    drag_ratio: float = 0.001
+    contact_shape: str = "engine"
+    contact_stiffness: float | None = 2.0
     contact_damping: float = 0.8
-    self_collision: bool = False
+    self_collision: bool = True
     damp_strain_rate: bool = False
-    collision_radius: float = 0.5
+    collision_radius: float = 0.625
     bond_backend: str = "auto"
 
     def __post_init__(self) -> None:
@@ -235,6 +250,15 @@ class Scene:
             raise PhysicsParameterError(
                 f"integrator must be one of {INTEGRATORS}, got {self.integrator!r} "
                 "(MuJoCo's implicit integrators mis-handle damped tendons between free bodies)")
+        if self.contact_shape == "engine" and self.floor:
+            if self.bond_backend == "tendon" or self.integrator != "euler":
+                raise PhysicsParameterError(
+                    "contact_shape 'engine' is computed by the native bond backend: it needs "
+                    "bond_backend 'native' or 'auto' and the euler integrator")
+            if self.contact_stiffness is None:
+                raise PhysicsParameterError(
+                    "contact_shape 'engine' needs contact_stiffness (the engine's floor is a "
+                    "penalty spring; the paper's: 2.0 E·L)")
         if self.bond_backend == "native" and self.integrator != "euler":
             raise PhysicsParameterError(
                 "bond_backend 'native' supports the euler integrator only (its muscle drive "
@@ -303,36 +327,61 @@ class Physics:
         return self.materials[material].density * self.scene.voxel_size ** 3
 
     def timestep(self, stiffness_per_mass: float) -> float:
-        """Time step in s for the stiffest spring present.
+        """Time step in s for the stiffest bond present: `timestep_safety` × the stability
+        limit of semi-implicit Euler for the bond network's fastest mode.
 
-        The paper engine's rule: dt = safety × 0.9 / (2π sqrt(k/m)), with k/m in s⁻² the
-        largest ratio of a spring's stiffness (N/m) to its voxel's mass (kg), times
-        min(1, 1/ζ) for the bond damping ratio ζ: damping proportional to stiffness damps the
-        fastest mode ~2.8 ζ, and explicit Euler's stable step then shrinks like 1/ζ (measured:
-        without the factor a 5×5×5 block diverges at ζ ≥ 1.5; docs/accuracy.md).
+        A bond of stiffness k between voxels of mass m has frequency ω_b = sqrt(k/m)
+        (`stiffness_per_mass` = k/m in s⁻², the largest over the robot's bonds). The network's
+        fastest mode is ω = r·ω_b, and stiffness-proportional damping (c = 2ζ sqrt(mk)) gives
+        it the damping ratio ζ·r. Semi-implicit Euler on x'' + 2ζr·ω x' + ω² x = 0 is stable
+        iff dt·ω < 2 (sqrt(1 + (ζr)²) − ζr), so
+
+            dt = safety × 2 (sqrt(1 + (ζr)²) − ζr) / (r ω_b).
+
+        r = MODE_RATIO (2.7) for Timoshenko bonds, measured from where 4³ and 5³ blocks
+        (interior voxels with 6 bonds: the stiffest topology) diverge at ζ = 1 and 2; shear-
+        rigid bonds ("euler_bernoulli") have diagonals 2(1+ν) times stiffer, so r grows by
+        sqrt(2(1+ν)) (measured: 4.4 from the limit at ζ = 0.4; predicted 4.44). The paper
+        engine's rule, 0.9/(2π ω_b), ignores damping and the network; with ζ = 1 it diverges
+        here (docs/accuracy.md).
         """
         _check("stiffness_per_mass", stiffness_per_mass, low=0.0)
-        zeta = self.scene.bond_damping_ratio
-        heavy_damping = min(1.0, 1.0 / zeta) if zeta > 0.0 else 1.0
-        return (self.scene.timestep_safety * heavy_damping * 0.9
-                / (2.0 * math.pi * math.sqrt(stiffness_per_mass)))
+        ratio = MODE_RATIO
+        if self.scene.bond_model == "euler_bernoulli":
+            poisson = max(p.poisson_ratio for p in self.materials.values())
+            ratio *= math.sqrt(2.0 * (1.0 + poisson))
+        damped = self.scene.bond_damping_ratio * ratio
+        limit = 2.0 * (math.sqrt(1.0 + damped * damped) - damped) / ratio
+        return self.scene.timestep_safety * limit / math.sqrt(stiffness_per_mass)
 
 
 def paper_physics() -> Physics:
     """The paper's engine (Voxelyze, evosoro build) as closely as this MuJoCo model allows.
 
     Measured on its reference cases (docs/fidelity.md):
-    - contacts: one per voxel, a sphere of radius L/2 under the centre (the engine's floor
-      ignores orientation); penalty spring 2·E·L as in the engine; damping 1.2·2 sqrt(mEL)
-      instead of the engine's 0.8 because MuJoCo's contact cannot pull (the engine's
-      damper can), so 0.8 rebounds 6× too high; 1.2 gives the dropped voxel's rebound;
-    - friction 1.0, the engine's static coefficient: MuJoCo has one coefficient, and the
-      robots' feet mostly stick (0.5, the sliding coefficient, reproduces the slide cases
-      but lets the feet slip: the tripod then walks 2× less);
+    - floor: the engine's own ("engine" contact shape, computed in the native loop): a
+      penalty spring 2·E·L and damper 0.8·2 sqrt(m E L) on each voxel's centre below its
+      current half size, static friction 1.0 with a stick state, kinetic friction 0.5;
+    - bonds: shear-rigid beams ("euler_bernoulli"), the engine's beam element (transverse
+      stiffness E·L = 12EI/L³); with Timoshenko bonds the multiped's legs sag and it walks
+      a fifth as far;
+    - self-collision on, spheres of radius 0.625 L (the engine's collision envelope);
     - bond damping ratio 0.4: the engine damps half the relative velocity of a bond
       (ζ = 1 there ≈ 0.5 here); 0.4 reproduces the 3×3×3 block's rebound (restitution 0.35);
     - the engine's "slow" drag, ζ = 0.001.
     """
+    materials = {m: replace(p, friction=1.0, kinetic_friction=0.5)
+                 for m, p in paper_materials().items()}
+    return Physics(materials=materials, scene=Scene(
+        contact_shape="engine", contact_stiffness=2.0, contact_damping=0.8,
+        bond_model="euler_bernoulli", self_collision=True, collision_radius=0.625,
+        bond_damping_ratio=0.4, drag_ratio=0.001))
+
+
+def sphere_physics() -> Physics:
+    """The first `paper_physics` (before the engine floor): MuJoCo sphere contacts (one per
+    voxel, spring 2·E·L, damping 1.2 because MuJoCo's contact cannot pull), friction 1.0,
+    Timoshenko bonds, ζ 0.4, drag 0.001, no self-collision; works with the tendon backend."""
     materials = {m: replace(p, friction=1.0) for m, p in paper_materials().items()}
     return Physics(materials=materials, scene=Scene(
         contact_shape="sphere", contact_stiffness=2.0, contact_damping=1.2,

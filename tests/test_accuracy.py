@@ -130,10 +130,20 @@ def heavily_damped_block(safety: float | None = None) -> Run:
     return Run(block(4, Material.SOFT), physics, settle=0.03, measured=0.0)
 
 
-def test_damping_aware_rule_is_stable_at_zeta_2():
-    """The proposed rule dt = safety × min(1, 1/ζ) × paper rule (docs/accuracy.md)."""
-    default = Physics().scene.timestep_safety
-    assert evaluate(heavily_damped_block(default * min(1.0, 1 / 2.0)))["stable"]
+@pytest.mark.parametrize("bond_model", ["euler_bernoulli", "timoshenko"])
+@pytest.mark.parametrize("zeta", [0.4, 2.0])
+def test_time_step_rule_puts_the_limit_at_safety_one(bond_model, zeta):
+    """`Physics.timestep` is Euler's stability limit of the damped bond network: a 4³ block
+    runs at safety 1.0 and diverges at 1.25, whatever the bond model and damping
+    (measured on 4³ and 5³ blocks: stable at 1.0, unstable at 1.1, for ζ 0.4, 1 and 2)."""
+    def run(safety: float) -> bool:
+        physics = Physics().replace_scene(bond_damping_ratio=zeta, bond_model=bond_model,
+                                          timestep_safety=safety)
+        return evaluate(Run(block(4, Material.SOFT), physics, settle=0.03,
+                            measured=0.0))["stable"]
+
+    assert run(1.0)
+    assert not run(1.25)
 
 
 def test_automatic_time_step_is_stable_at_zeta_2():

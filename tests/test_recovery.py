@@ -9,7 +9,7 @@ from mjregen.physics import Physics
 from mjregen.recovery import measure_recovery, write_report
 from mjregen.simulate import simulate
 
-WALKER = Robot.load("assets/robots/bimorph_walker_3d.npy")
+WALKER = Robot.load("assets/robots/paper/tripod.npy")  # walks 4.2 voxel lengths in 0.1 s
 QUICK = Physics().replace_scene(settle_time=0.01)
 
 
@@ -18,7 +18,7 @@ def test_recovery_table_from_real_simulations(tmp_path):
     report = measure_recovery({"original": WALKER, "damaged": damaged, "regrown": WALKER},
                               physics=QUICK, duration=0.1)
     walked = simulate(WALKER, physics=QUICK, duration=0.1).distance
-    assert walked > 0.05  # it really walks
+    assert walked > 1.0  # it really walks
     assert report.distance["original"] == walked == report.distance["regrown"]
     assert report.distance["damaged"] == simulate(damaged, physics=QUICK, duration=0.1).distance
     assert report.percent_of_original("regrown") == pytest.approx(100.0)
