@@ -60,7 +60,14 @@ class _Bonds(ctypes.Structure):
         ("fk", ctypes.c_void_p), ("fc", ctypes.c_void_p), ("mu_s", ctypes.c_void_p),
         ("mu_k", ctypes.c_void_p), ("mass", ctypes.c_void_p), ("half_p", ctypes.c_void_p),
         ("half_m", ctypes.c_void_p), ("strain_in", ctypes.c_void_p),
+        ("drag_lin", ctypes.c_double), ("drag_rot", ctypes.c_double), ("collide", ctypes.c_int),
+        ("coll_radius", ctypes.c_double), ("coll_skin", ctypes.c_double),
+        ("coll_reach", ctypes.c_double), ("grid", ctypes.c_void_p), ("surface", ctypes.c_void_p),
+        ("coll_ref", ctypes.c_void_p), ("coll_pairs", ctypes.c_void_p),
+        ("coll_count", ctypes.c_void_p),
     ]
+
+COLLISION_SKIN = 0.5  # Verlet-list skin of the native self-collision, in voxel lengths
 
 
 def _compiler() -> str | None:
@@ -197,8 +204,23 @@ class NativeBonds:
             self.arrays.update(fk=floor.stiffness, fc=floor.damping, mu_s=floor.static_friction,
                                mu_k=floor.kinetic_friction, mass=floor.mass,
                                half_p=floor.half_plus, half_m=floor.half_minus)
-            struct.floor = 1
+            struct.floor = int(floor.floor)
             struct.waves = int(np.any(floor.half_plus) or np.any(floor.half_minus))
+            struct.drag_lin, struct.drag_rot = floor.drag_linear, floor.drag_rotational
+            colliders = int(np.count_nonzero(floor.surface))
+            if floor.collision_radius > 0.0 and colliders > 1:
+                length = scene.voxel_size
+                largest = 1.0 + 2.0 * max(float(np.max(floor.half_plus)),
+                                          float(np.max(floor.half_minus))) / length
+                self.arrays.update(
+                    grid=np.ascontiguousarray(floor.grid_index, dtype=np.int32),
+                    surface=floor.surface.astype(np.int32), coll_ref=np.zeros((n_vox, 3)),
+                    coll_pairs=np.zeros((colliders * (colliders - 1) // 2, 2), dtype=np.int32),
+                    coll_count=np.zeros(2, dtype=np.int32))
+                struct.collide = 1
+                struct.coll_radius = floor.collision_radius
+                struct.coll_reach = 2.0 * floor.collision_radius * largest
+                struct.coll_skin = COLLISION_SKIN * length
         if muscles is not None and muscles.count:
             length = muscles.voxel_size
             plus, minus = length * muscles.weights[:, 0], length * muscles.weights[:, 1]

@@ -123,15 +123,23 @@ class BondTable:
 
 @dataclass(frozen=True)
 class FloorTable:
-    """The paper engine's floor per voxel (`Scene.contact_shape` "engine"), body order.
+    """What the native loop computes besides the bonds with `Scene.contact_shape` "engine":
+    the paper engine's floor, its self-collision and its drag (voxels in body order).
 
-    Attributes (all ``(n_voxels,)`` float):
-      stiffness: N/m, penalty spring contact_stiffness·E·L.
-      damping: N·s/m, contact_damping·2 sqrt(m E L).
-      static_friction, kinetic_friction: coefficients.
+    Attributes (``(n_voxels,)`` float unless stated):
+      stiffness: N/m, floor penalty spring contact_stiffness·E·L (self-collision: the
+        harmonic mean of the two voxels').
+      damping: N·s/m, contact_damping·2 sqrt(m E L) (likewise).
+      static_friction, kinetic_friction: floor friction coefficients.
       mass: kg.
       half_plus, half_minus: m, L/2 × the voxel's muscle strain amplitude if it is a "+" /
         "−" muscle (its half size is L/2 + half_plus·e₊ + half_minus·e₋), else 0.
+      floor: whether the floor exists.
+      grid_index: ``(n_voxels, 3)`` int, grid indices (2D: z in the last column).
+      surface: ``(n_voxels,)`` bool, voxels that self-collide (a face neighbour missing).
+      collision_radius: m, self-collision sphere radius at nominal size; 0 = off.
+      drag_linear: N·s/m, drag on each centre (MuJoCo's Stokes drag of a cube, 3π L μ).
+      drag_rotational: N·m·s, its rotational part (π L³ μ).
     """
 
     stiffness: np.ndarray
@@ -141,16 +149,25 @@ class FloorTable:
     mass: np.ndarray
     half_plus: np.ndarray
     half_minus: np.ndarray
+    floor: bool
+    grid_index: np.ndarray
+    surface: np.ndarray
+    collision_radius: float
+    drag_linear: float
+    drag_rotational: float
 
 
-def _floor_table(physics: Physics, materials: list[Material], masses: np.ndarray) -> FloorTable:
-    """`FloorTable` of voxels with these materials and masses."""
+def _engine_table(physics: Physics, materials: list[Material], masses: np.ndarray,
+                  grid_index: np.ndarray, surface: np.ndarray, viscosity: float) -> FloorTable:
+    """`FloorTable` of voxels with these materials, masses and grid places."""
     scene = physics.scene
     L = scene.voxel_size
     props = [physics.materials[m] for m in materials]
     EL = np.array([p.youngs_modulus * L for p in props])
     amplitude = np.array([0.5 * L * p.strain_amplitude for p in props])
     sign = np.array([p.phase_sign for p in props])
+    index3 = np.zeros((len(materials), 3), dtype=np.int32)
+    index3[:, 3 - grid_index.shape[1]:] = grid_index
     return FloorTable(
         stiffness=scene.contact_stiffness * EL,
         damping=scene.contact_damping * 2.0 * np.sqrt(masses * EL),
@@ -159,7 +176,10 @@ def _floor_table(physics: Physics, materials: list[Material], masses: np.ndarray
                                    else p.kinetic_friction for p in props], dtype=float),
         mass=np.asarray(masses, dtype=float),
         half_plus=np.where(sign > 0, amplitude, 0.0),
-        half_minus=np.where(sign < 0, amplitude, 0.0))
+        half_minus=np.where(sign < 0, amplitude, 0.0),
+        floor=scene.floor, grid_index=index3, surface=np.asarray(surface, dtype=bool),
+        collision_radius=scene.collision_radius * L if scene.self_collision else 0.0,
+        drag_linear=3.0 * math.pi * L * viscosity, drag_rotational=math.pi * L**3 * viscosity)
 
 
 @dataclass(frozen=True)
@@ -181,7 +201,8 @@ class CompiledRobot:
       native_model: with the native backend, the model that `simulation_of` steps: the same
         bodies, joints and contacts without sites, tendons or actuators (bond forces come
         from `mjregen.bonds_native`); None with the tendon backend.
-      floor: with contact_shape "engine", the floor computed in the native loop; else None.
+      floor: with contact_shape "engine" (native backend), what the native loop computes
+        besides the bonds: floor, self-collision, drag (`FloorTable`); else None.
 
     With the native backend the tendon `spec` and `model` are built on first access.
     """
@@ -318,12 +339,17 @@ def compile_robot(
     spec.option.gravity = _mjcf([0.0, 0.0, -scene.gravity])
     spec.option.integrator = {"euler": mujoco.mjtIntegrator.mjINT_EULER,
                               "rk4": mujoco.mjtIntegrator.mjINT_RK4}[scene.integrator]
+    # "engine" contacts on the native backend: floor, self-collision and drag in the C loop
+    engine = scene.contact_shape == "engine" and not tendons
+    engine_floor = engine and scene.floor
+    viscosity = 0.0
     if scene.drag_ratio > 0.0:
         soft = physics.materials[Material.SOFT]
         mass = physics.voxel_mass(Material.SOFT)
         drag = 2.0 * scene.drag_ratio * math.sqrt(mass * soft.youngs_modulus * L)
-        spec.option.viscosity = _mjcf(drag / (3.0 * math.pi * L))  # Stokes: 3πμd, d = L
-    engine_floor = scene.contact_shape == "engine" and not tendons and scene.floor
+        viscosity = _mjcf(drag / (3.0 * math.pi * L))  # Stokes: 3πμd, d = L
+        if not engine:
+            spec.option.viscosity = viscosity
     point = scene.contact_shape == "point" or (scene.contact_shape == "engine" and tendons)
     floor_geom = FLOOR
     if scene.floor:
@@ -348,7 +374,7 @@ def compile_robot(
         props = physics.materials[material]
         solref, solimp = _contact_solver(scene, props, masses[i])
         contact_geom = name
-        collide = int(scene.self_collision and surface[i])
+        collide = int(scene.self_collision and surface[i] and not engine)
         # contact geoms are massless and hidden (group 3): the box keeps mass, inertia, looks
         if scene.contact_shape == "sphere" or (collide and scene.collision_radius == 0.5):
             # one sphere of radius L/2 serves the floor ("sphere") and self-collision
@@ -374,7 +400,7 @@ def compile_robot(
             spec.add_pair(geomname1=floor_geom, geomname2=contact_geom, condim=3,
                           friction=_mjcf([props.friction, props.friction, 0.0, 0.0, 0.0]),
                           solref=solref, solimp=solimp)
-    if scene.self_collision:
+    if scene.self_collision and not engine:
         for i, j in _near_pairs(grid_index, index_of):
             spec.add_exclude(bodyname1=bodies[i].name, bodyname2=bodies[j].name)
 
@@ -428,7 +454,7 @@ def compile_robot(
             spec.add_actuator(name=f"m{k}", trntype=mujoco.mjtTrn.mjTRN_TENDON, target=f"t{k}",
                               gainprm=[1.0] + [0.0] * 9)
     spec.option.timestep = _mjcf(physics.timestep(max_k_per_m))
-    if engine_floor:
+    if engine:
         spec.nuserdata = len(voxels)  # the floor's stick flags
     model = spec.compile()
     table = BondTable(ends=np.array(ends, dtype=int).reshape(-1, 2),
@@ -453,7 +479,8 @@ def compile_robot(
         body_ids=np.array([model.body(body.name).id for body in bodies]),
         masses=masses, muscles=muscles, n_bonds=len(bonds), bonds=table,
         bond_backend=backend, native_model=None if tendons else model,
-        floor=_floor_table(physics, [m for _, m in voxels], masses) if engine_floor else None,
+        floor=_engine_table(physics, [m for _, m in voxels], masses, grid_index, surface,
+                            viscosity) if engine else None,
         _tendon=lazy)
 
 

@@ -169,8 +169,11 @@ class Scene:
         centre (no moment; the damper may pull, as in the engine), and friction has two
         regimes: a sticking voxel keeps its place until the other horizontal forces exceed
         `friction`·N (static), a sliding one feels `kinetic_friction`·N and sticks again
-        when that would stop it within a step. Needs the native backend (the exported MJCF
-        approximates it with "point" contacts, the nearest MuJoCo has).
+        when that would stop it within a step (a sticking voxel whose velocity is set from
+        outside, a kick, is released). With it, self-collision (spring and damper of the
+        floor's constants, repulsion only) and drag are computed natively as well. Needs the
+        native backend (the exported MJCF approximates it with "point" contacts, MuJoCo
+        collision spheres and viscosity, the nearest plain MuJoCo has).
       contact_stiffness: None (use contact_timeconst / dampratio / width) or the floor's
         penalty stiffness per voxel in units of the voxel's E·L (the paper engine: 2).
       contact_damping: with contact_stiffness, the floor's damping in units of

@@ -30,20 +30,25 @@ def test_3d_structure_body_per_voxel_free_joint_8_tendons_per_bond():
     assert np.allclose(compiled.masses, 1e-3)
 
 
-def test_engine_floor_has_no_mujoco_floor_contacts_and_collides_surface_voxels():
-    """Default physics: the floor is computed natively (no pairs; a stick flag per voxel in
-    MjData.userdata); self-collision spheres of 0.625 L on surface voxels only."""
+def test_engine_contacts_are_native_no_mujoco_contacts_or_viscosity():
+    """Default physics: floor, self-collision (surface voxels, 0.625 L spheres) and drag are
+    computed natively (`FloorTable`); the native model has no contact geoms, no pairs, no
+    viscosity, and a stick flag per voxel in MjData.userdata. The exported tendon model
+    keeps MuJoCo equivalents (point contacts, collision spheres, viscosity)."""
     robot = Robot.from_body(np.ones((3, 3, 3), dtype=np.int8))  # 26 surface voxels + 1
     compiled = compile_robot(robot)
-    model = compiled.native_model
-    assert compiled.floor is not None and model.npair == 0 and model.nuserdata == 27
-    spheres = model.geom_contype == 1
-    assert spheres.sum() == 26 and np.all(model.geom_conaffinity[spheres] == 1)
-    assert np.allclose(model.geom_size[spheres, 0], 0.625e-3)
-    assert compiled.floor.stiffness == pytest.approx(np.full(27, 2.0 * 1e7 * 1e-3))
-    assert np.all(compiled.floor.static_friction == 1.0)
-    assert np.all(compiled.floor.kinetic_friction == 0.5)
-    assert compiled.model.npair == 27  # the exported MJCF: "point" contacts instead
+    model, table = compiled.native_model, compiled.floor
+    assert table is not None and model.npair == 0 and model.nuserdata == 27
+    assert np.all(model.geom_contype == 0) and model.opt.viscosity == 0.0
+    assert table.surface.sum() == 26 and not table.surface[13]  # the centre voxel is inside
+    assert table.collision_radius == pytest.approx(0.625e-3)
+    assert table.stiffness == pytest.approx(np.full(27, 2.0 * 1e7 * 1e-3))
+    assert np.all(table.static_friction == 1.0) and np.all(table.kinetic_friction == 0.5)
+    # drag 2ζ sqrt(m E L) = 2·0.001·sqrt(1e-3 kg · 1e4 N/m) = 6.3246e-3 N s/m (c/m = 6.32/s)
+    assert table.drag_linear == pytest.approx(6.3246e-3, rel=1e-5)
+    exported = compiled.model
+    assert exported.npair == 27 and exported.opt.viscosity > 0
+    assert (exported.geom_contype == 1).sum() == 26
 
 
 def test_2d_structure_slide_slide_hinge_4_tendons_per_bond():

@@ -57,6 +57,17 @@ typedef struct {
   const double* half_p; /* (nvox) L/2 w+ of the voxel's own scale (muscle +), else 0 */
   const double* half_m; /* (nvox) L/2 w- (muscle -), else 0 */
   const double* strain_in; /* NULL, or (2) strains (e+, e-) set by the caller (no waveform) */
+  double drag_lin;      /* N s/m, drag on each voxel centre (0: none) */
+  double drag_rot;      /* N m s, rotational drag */
+  int collide;          /* 1: self-collision of surface voxels computed here */
+  double coll_radius;   /* m, collision sphere radius at the voxel's nominal size */
+  double coll_skin;     /* m, Verlet-list skin */
+  double coll_reach;    /* m, largest contact distance (both spheres at their largest) */
+  const int* grid;      /* (nvox, 3) grid indices (neighbours in the grid never collide) */
+  const int* surface;   /* (nvox) 1: the voxel collides */
+  double* coll_ref;     /* (nvox, 3) positions when the candidate list was built */
+  int* coll_pairs;      /* (capacity, 2) candidate pairs */
+  int* coll_count;      /* (2): [number of candidates, list built (0/1)] */
 } mjrBonds;
 
 typedef struct {
@@ -245,6 +256,91 @@ static void voxel_states(const mjrBonds* b, const mjData* d) {
   }
 }
 
+/* Drag on every voxel: MuJoCo's Stokes drag of the inertia box, -drag_lin v on the centre
+   and -drag_rot w (the paper engine's "slow" damping), computed here instead of by MuJoCo. */
+static void voxel_drag(const mjrBonds* b) {
+  for (int v = 0; v < b->nvox; v++) {
+    if (b->vadr[v] < 0) continue;
+    double* s = b->scratch + 24 * v;
+    for (int a = 0; a < 3; a++) {
+      s[18 + a] -= b->drag_lin * s[12 + a];
+      s[21 + a] -= b->drag_rot * s[15 + a];
+    }
+  }
+}
+
+static inline int grid_neighbours(const int* gi, const int* gj) {
+  for (int a = 0; a < 3; a++) {
+    int d = gi[a] - gj[a];
+    if (d > 1 || d < -1) return 0;
+  }
+  return 1;
+}
+
+/* Self-collision as the paper engine: surface voxels that are not grid neighbours repel as
+   spheres of radius coll_radius times their current linear scale (muscle strain), with a
+   penalty spring and damper along the centre line, each the harmonic mean of the two
+   voxels' floor constants; repulsion only, no friction, no moment. Candidates come from a
+   Verlet list rebuilt whenever a voxel has moved more than half the skin since the last
+   build, so no touching pair is ever missed. */
+static void self_collision(const mjrBonds* b, double ep, double em) {
+  int n = b->nvox;
+  int* count = b->coll_count;
+  double half_skin2 = 0.25 * b->coll_skin * b->coll_skin;
+  int rebuild = count[1] == 0;
+  for (int v = 0; v < n && !rebuild; v++) {
+    if (!b->surface[v]) continue;
+    const double* p = b->scratch + 24 * v;
+    const double* r = b->coll_ref + 3 * v;
+    double dx = p[0] - r[0], dy = p[1] - r[1], dz = p[2] - r[2];
+    if (dx * dx + dy * dy + dz * dz > half_skin2) rebuild = 1;
+  }
+  if (rebuild) {
+    double cut = b->coll_reach + b->coll_skin, cut2 = cut * cut;
+    int found = 0;
+    for (int i = 0; i < n; i++) {
+      if (!b->surface[i]) continue;
+      const double* pi = b->scratch + 24 * i;
+      for (int j = i + 1; j < n; j++) {
+        if (!b->surface[j] || grid_neighbours(b->grid + 3 * i, b->grid + 3 * j)) continue;
+        const double* pj = b->scratch + 24 * j;
+        double dx = pj[0] - pi[0], dy = pj[1] - pi[1], dz = pj[2] - pi[2];
+        if (dx * dx + dy * dy + dz * dz < cut2) {
+          b->coll_pairs[2 * found] = i;
+          b->coll_pairs[2 * found + 1] = j;
+          found++;
+        }
+      }
+    }
+    for (int v = 0; v < n; v++) memcpy(b->coll_ref + 3 * v, b->scratch + 24 * v, 3 * sizeof(double));
+    count[0] = found;
+    count[1] = 1;
+  }
+  double two_over_l = 2.0 / b->voxel_size;
+  for (int k = 0; k < count[0]; k++) {
+    int i = b->coll_pairs[2 * k], j = b->coll_pairs[2 * k + 1];
+    double *si = b->scratch + 24 * i, *sj = b->scratch + 24 * j;
+    double d[3] = {sj[0] - si[0], sj[1] - si[1], sj[2] - si[2]};
+    double dist2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+    double scale_i = 1.0 + two_over_l * (b->half_p[i] * ep + b->half_m[i] * em);
+    double scale_j = 1.0 + two_over_l * (b->half_p[j] * ep + b->half_m[j] * em);
+    double contact = b->coll_radius * (scale_i + scale_j);
+    if (dist2 >= contact * contact || dist2 <= 0.0) continue;
+    double dist = sqrt(dist2);
+    double u[3] = {d[0] / dist, d[1] / dist, d[2] / dist};
+    double closing = 0.0;
+    for (int a = 0; a < 3; a++) closing += u[a] * (sj[12 + a] - si[12 + a]);
+    double k = 2.0 / (1.0 / b->fk[i] + 1.0 / b->fk[j]);
+    double c = 2.0 / (1.0 / b->fc[i] + 1.0 / b->fc[j]);
+    double f = k * (contact - dist) - c * closing;
+    if (f <= 0.0) continue;
+    for (int a = 0; a < 3; a++) {
+      sj[18 + a] += f * u[a];
+      si[18 + a] -= f * u[a];
+    }
+  }
+}
+
 /* The paper engine's floor (Voxelyze CVX_Voxel::floorForce and the friction part of
    timeStep), added to the voxels' forces in scratch. Per voxel touching the floor (centre
    below its current half size, which shrinks with the voxel's own muscle strain):
@@ -256,6 +352,10 @@ static void voxel_states(const mjrBonds* b, const mjData* d) {
    what qfrc_passive already holds (drag), qfrc_applied and gravity (voxel bodies have their
    centre of mass at the joint, so no other bias force acts on their translation); contact
    forces of self-collision are not known here (MuJoCo solves them later). Stick flags live in d->userdata[0 .. nvox-1]. */
+/* m/s: a sticking voxel's horizontal speed is zeroed every step (to ~1e-20); faster means an
+   outside impulse (someone wrote qvel), which releases it */
+#define KICKED 1e-9
+
 static void engine_floor(const mjrBonds* b, const mjModel* mdl, mjData* d, double ep,
                          double em) {
   int planar = b->dim == 3;
@@ -282,6 +382,9 @@ static void engine_floor(const mjrBonds* b, const mjModel* mdl, mjData* d, doubl
                                 + m * gravity[1] : 0.0};
     double vh[2] = {vel[0], planar ? vel[1] : 0.0};
     double stop[2] = {-other[0] - m * vh[0] / dt, -other[1] - m * vh[1] / dt};
+    if (*stick != 0.0 && vh[0] * vh[0] + vh[1] * vh[1] > KICKED * KICKED) {
+      *stick = 0.0;  /* a sticking voxel only moves if pushed from outside (qvel written) */
+    }
     if (*stick != 0.0) {
       double limit = b->mu_s[v] * normal;
       if (other[0] * other[0] + other[1] * other[1] > limit * limit) {
@@ -330,45 +433,64 @@ void mjr_passive(const mjModel* m, mjData* d) {
     if (b->rate_drive) strain_rates(b, (step + 0.5) * b->dt, &rp, &rm);
   }
 
-  for (int n = 0; n < b->nten; n++) {
+  /* the tendons of one bond are consecutive: load the two voxels' states once per bond and
+     write their summed force and torques once */
+  int n = 0;
+  while (n < b->nten) {
     int i = b->ends[2 * n], j = b->ends[2 * n + 1];
     double* si = b->scratch + 24 * i;
     double* sj = b->scratch + 24 * j;
-    const double* oi = b->off + 6 * n;
-    const double* oj = oi + 3;
-    const double *Ri = si + 3, *Rj = sj + 3;
-    double ri[3], rj[3], dv[3], vi[3], vj[3], tmp[3];
+    double pi[3], pj[3], Ri[9], Rj[9], ui[3], uj[3], wi[3], wj[3];
+    memcpy(pi, si, 3 * sizeof(double));
+    memcpy(pj, sj, 3 * sizeof(double));
+    memcpy(Ri, si + 3, 9 * sizeof(double));
+    memcpy(Rj, sj + 3, 9 * sizeof(double));
+    memcpy(ui, si + 12, 3 * sizeof(double));
+    memcpy(uj, sj + 12, 3 * sizeof(double));
+    memcpy(wi, si + 15, 3 * sizeof(double));
+    memcpy(wj, sj + 15, 3 * sizeof(double));
+    double Fsum[3] = {0.0, 0.0, 0.0}, Ti[3] = {0.0, 0.0, 0.0}, Tj[3] = {0.0, 0.0, 0.0};
+    for (; n < b->nten && b->ends[2 * n] == i && b->ends[2 * n + 1] == j; n++) {
+      const double* oi = b->off + 6 * n;
+      const double* oj = oi + 3;
+      double ri[3], rj[3], dv[3], vi[3], vj[3], tmp[3];
+      for (int a = 0; a < 3; a++) {
+        ri[a] = Ri[3 * a] * oi[0] + Ri[3 * a + 1] * oi[1] + Ri[3 * a + 2] * oi[2];
+        rj[a] = Rj[3 * a] * oj[0] + Rj[3 * a + 1] * oj[1] + Rj[3 * a + 2] * oj[2];
+      }
+      for (int a = 0; a < 3; a++) dv[a] = (pj[a] + rj[a]) - (pi[a] + ri[a]);
+      double len = sqrt(dv[0] * dv[0] + dv[1] * dv[1] + dv[2] * dv[2]);
+      if (len < 1e-15) continue;
+      double inv = 1.0 / len;
+      double u[3] = {dv[0] * inv, dv[1] * inv, dv[2] * inv};
+      cross(wi, ri, vi);
+      cross(wj, rj, vj);
+      double rate = 0.0;
+      for (int a = 0; a < 3; a++) rate += u[a] * ((uj[a] + vj[a]) - (ui[a] + vi[a]));
+      double rest = b->rest[n], drive = 0.0;
+      if (n < b->nmus) {
+        double axial = b->voxel_size + b->plus[n] * ep + b->minus[n] * em;
+        rest = sqrt(axial * axial + b->lat2[n]);
+        if (b->rate_drive) drive = (axial / rest) * (b->plus_c[n] * rp + b->minus_c[n] * rm);
+      }
+      double f = -b->k[n] * (len - rest) - b->c[n] * rate + drive;
+      double F[3] = {f * u[0], f * u[1], f * u[2]};
+      for (int a = 0; a < 3; a++) Fsum[a] += F[a];
+      cross(rj, F, tmp);
+      for (int a = 0; a < 3; a++) Tj[a] += tmp[a];
+      cross(ri, F, tmp);
+      for (int a = 0; a < 3; a++) Ti[a] -= tmp[a];
+    }
     for (int a = 0; a < 3; a++) {
-      ri[a] = Ri[3 * a] * oi[0] + Ri[3 * a + 1] * oi[1] + Ri[3 * a + 2] * oi[2];
-      rj[a] = Rj[3 * a] * oj[0] + Rj[3 * a + 1] * oj[1] + Rj[3 * a + 2] * oj[2];
+      sj[18 + a] += Fsum[a];
+      si[18 + a] -= Fsum[a];
+      sj[21 + a] += Tj[a];
+      si[21 + a] += Ti[a];
     }
-    for (int a = 0; a < 3; a++) dv[a] = (sj[a] + rj[a]) - (si[a] + ri[a]);
-    double len = sqrt(dv[0] * dv[0] + dv[1] * dv[1] + dv[2] * dv[2]);
-    if (len < 1e-15) continue;
-    double u[3] = {dv[0] / len, dv[1] / len, dv[2] / len};
-    cross(si + 15, ri, vi);
-    cross(sj + 15, rj, vj);
-    double rate = 0.0;
-    for (int a = 0; a < 3; a++) rate += u[a] * ((sj[12 + a] + vj[a]) - (si[12 + a] + vi[a]));
-    double rest = b->rest[n], drive = 0.0;
-    if (n < b->nmus) {
-      double axial = b->voxel_size + b->plus[n] * ep + b->minus[n] * em;
-      rest = sqrt(axial * axial + b->lat2[n]);
-      if (b->rate_drive) drive = (axial / rest) * (b->plus_c[n] * rp + b->minus_c[n] * rm);
-    }
-    double f = -b->k[n] * (len - rest) - b->c[n] * rate + drive;
-    double F[3] = {f * u[0], f * u[1], f * u[2]};
-    double *fi = si + 18, *ti = si + 21, *fj = sj + 18, *tj = sj + 21;
-    for (int a = 0; a < 3; a++) {
-      fj[a] += F[a];
-      fi[a] -= F[a];
-    }
-    cross(rj, F, tmp);
-    for (int a = 0; a < 3; a++) tj[a] += tmp[a];
-    cross(ri, F, tmp);
-    for (int a = 0; a < 3; a++) ti[a] -= tmp[a];
   }
 
+  if (b->drag_lin > 0.0 || b->drag_rot > 0.0) voxel_drag(b);
+  if (b->collide) self_collision(b, ep, em);
   if (b->floor && m->nuserdata >= b->nvox) engine_floor(b, m, d, ep, em);
 
   double* qfrc = d->qfrc_passive;
