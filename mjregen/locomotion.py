@@ -1,13 +1,17 @@
 """The locomotion fitness pipeline of an evolution.
 
 genomes ``(P, G)`` → batched NCA growth → the paper's cleaning → identical robots merged
-(each distinct grid is simulated once per generation) → simulation on a backend → fitness.
+(each distinct grid is simulated once per generation) → robots already simulated in an
+earlier generation (elites, recurring shapes) taken from a cache → simulation of the rest on a
+backend → fitness. Simulation is deterministic, so the cache changes no result, only the time;
+a resumed run starts with an empty cache and gets the same numbers.
 Unstable simulations keep their penalty fitness; individuals whose evaluation failed twice
 (an exception or a dead worker) get the same penalty and are flagged `failed`.
 """
 
 from __future__ import annotations
 
+from collections import OrderedDict
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -32,6 +36,9 @@ class LocomotionTask:
     nca: NCAConfig
     physics: Physics = field(default_factory=Physics)
     duration: float | None = None
+    cache_size: int = 20_000
+    _cache: OrderedDict = field(default_factory=OrderedDict, init=False, repr=False,
+                                compare=False)
 
     @property
     def genome_size(self) -> int:
@@ -45,17 +52,29 @@ class LocomotionTask:
         owner = np.array([distinct.setdefault(g.tobytes(), len(distinct)) for g in grids])
         firsts = np.unique(owner, return_index=True)[1]
         n_voxels = np.count_nonzero(grids.reshape(population, -1), axis=1)
-        to_simulate = [d for d, i in enumerate(firsts) if n_voxels[i] > 0]
+        keys = list(distinct)
+        present = [d for d, i in enumerate(firsts) if n_voxels[i] > 0]
+        cached = {d: self._cache[keys[d]] for d in present if keys[d] in self._cache}
+        to_simulate = [d for d in present if d not in cached]
         outcomes = backend.map(
             evaluate_robot,
             [RobotJob(grids[firsts[d]], self.physics, self.duration) for d in to_simulate],
         )
+        for d, result in cached.items():
+            self._cache.move_to_end(keys[d])
+        for d, outcome in zip(to_simulate, outcomes):
+            if outcome.ok:  # failures are not results: they are retried next time
+                self._cache[keys[d]] = outcome.value
+        while len(self._cache) > self.cache_size:
+            self._cache.popitem(last=False)
         n = len(distinct)
         fitness = np.full(n, EMPTY_FITNESS[dim], dtype=np.float64)
         distance = np.zeros(n)
         stable = np.ones(n, dtype=bool)
         failed = np.zeros(n, dtype=bool)
         errors, cpu = [], 0.0
+        for d, result in cached.items():
+            fitness[d], distance[d], stable[d] = result.fitness, result.distance, result.stable
         for d, outcome in zip(to_simulate, outcomes):
             if outcome.ok:
                 result = outcome.value

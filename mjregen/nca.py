@@ -169,7 +169,7 @@ def check_genomes(config: NCAConfig, genomes: np.ndarray) -> np.ndarray:
         raise InvalidGenomeError(f"genome must be numeric, got dtype {array.dtype}")
     if not np.all(np.isfinite(array)):
         raise InvalidGenomeError("genome contains NaN or infinite values")
-    return array.astype(np.float32, copy=False)
+    return np.ascontiguousarray(array, dtype=np.float32)  # any strides in, C order out
 
 
 def random_genomes(

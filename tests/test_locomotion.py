@@ -30,10 +30,15 @@ def population():
     return np.concatenate([genomes, genomes[:3]])  # 3 duplicates
 
 
+def fresh_task(**kwargs) -> locomotion.LocomotionTask:
+    """A task with an empty result cache."""
+    return locomotion.LocomotionTask(nca=NCA, physics=QUICK, duration=0.02, **kwargs)
+
+
 def test_each_distinct_robot_is_simulated_once_and_scored_like_simulate():
     genomes = population()
     backend = CountingBackend()
-    result = TASK.evaluate(genomes, backend)
+    result = fresh_task().evaluate(genomes, backend)
     grids = grow(NCA, genomes).grids
     distinct_nonempty = {g.tobytes() for g in grids if g.any()}
     assert backend.items == len(distinct_nonempty) and result.n_distinct == len({g.tobytes() for g in grids})
@@ -41,6 +46,24 @@ def test_each_distinct_robot_is_simulated_once_and_scored_like_simulate():
     for i, grid in enumerate(grids):
         expected = simulate(grid, physics=QUICK, duration=0.02).fitness if grid.any() else EMPTY_FITNESS[2]
         assert result.fitness[i] == expected
+
+
+def test_robots_seen_in_earlier_generations_come_from_the_cache_with_the_same_result():
+    """Elites and recurring shapes are not simulated again; results are identical, and a
+    cache too small to hold a generation only costs time."""
+    genomes = population()
+    task, backend = fresh_task(), CountingBackend()
+    first = task.evaluate(genomes, backend)
+    simulated = backend.items
+    again = task.evaluate(genomes[::-1], backend)  # same robots, another order
+    assert backend.items == simulated  # nothing new simulated
+    assert np.array_equal(again.fitness, first.fitness[::-1])
+    assert np.array_equal(again.details["distance"], first.details["distance"][::-1],
+                          equal_nan=True)
+    tiny, counting = fresh_task(cache_size=1), CountingBackend()
+    tiny.evaluate(genomes, counting)
+    repeat = tiny.evaluate(genomes, counting)
+    assert counting.items == 2 * simulated - 1 and np.array_equal(repeat.fitness, first.fitness)
 
 
 def test_3d_fitness_subtracts_the_voxel_cost():
@@ -81,7 +104,9 @@ def test_a_raising_evaluation_is_contained(monkeypatch):
         raise RuntimeError("solver exploded")
 
     monkeypatch.setattr(locomotion, "evaluate_robot", explode)
-    result = TASK.evaluate(population(), SerialBackend())
+    task = fresh_task()
+    result = task.evaluate(population(), SerialBackend())
     simulated = result.details["voxels"] > 0
     assert np.all(result.failed[simulated]) and np.all(result.fitness[simulated] == UNSTABLE_FITNESS[2])
     assert result.errors and "solver exploded" in result.errors[0]
+    assert not task._cache  # a failure is not a result: it is tried again next generation
