@@ -96,13 +96,15 @@ def test_walk_json_equals_simulate(tmp_path, capsys):
     assert "exists" in capsys.readouterr().err
 
 
-def test_walk_with_the_paper_physics_preset(capsys):
-    from mjregen.physics import paper_physics
+@pytest.mark.parametrize("name", ["paper", "sphere"])
+def test_walk_with_a_physics_preset(capsys, name):
+    from mjregen import physics as presets
     from mjregen.simulate import simulate
 
-    assert main(["walk", WALKER, "--physics", "paper", "--settle", "0.01", "--duration", "0.03", "--json"]) == 0
+    assert main(["walk", WALKER, "--physics", name, "--settle", "0.01", "--duration", "0.03", "--json"]) == 0
     report = json.loads(capsys.readouterr().out)
-    expected = simulate(Robot.load(WALKER), physics=paper_physics().replace_scene(settle_time=0.01), duration=0.03)
+    physics = getattr(presets, f"{name}_physics")().replace_scene(settle_time=0.01)
+    expected = simulate(Robot.load(WALKER), physics=physics, duration=0.03)
     assert report["distance"] == expected.distance and report["steps"] == expected.steps
 
 

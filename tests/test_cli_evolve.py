@@ -37,8 +37,8 @@ def test_evolve_writes_a_run_and_resume_with_no_flags(tmp_path, capsys):
     assert main(["evolve", "--out", str(out), "--resume", "--backend", "serial", "--quiet"]) == 0
     assert main(["evolve", "--out", str(out), "--resume", "--pop", "7", "--quiet"]) == 1
     assert "--pop 7" in capsys.readouterr().err
-    assert main(["evolve", "--out", str(out), "--resume", "--physics", "paper", "--quiet"]) == 1
-    assert "--physics paper" in capsys.readouterr().err
+    assert main(["evolve", "--out", str(out), "--resume", "--physics", "sphere", "--quiet"]) == 1
+    assert "--physics sphere" in capsys.readouterr().err
     assert main(["evolve", *TINY, "--gens", "2", "--out", str(out)]) == 1
     assert "not empty" in capsys.readouterr().err
 

@@ -44,14 +44,15 @@ def add_run_folder_arguments(parser: argparse.ArgumentParser, *, resume_help: st
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
 
 
-PHYSICS = ("default", "paper")
+PHYSICS = ("default", "paper", "sphere", "legacy")
 
 
 def add_physics_choice(parser: argparse.ArgumentParser) -> None:
-    """--physics: the default model or the paper-engine preset."""
+    """--physics: the default model (= the paper-engine preset) or an earlier model."""
     parser.add_argument("--physics", choices=PHYSICS,
-                        help="'default' (the default), or 'paper': mjregen.physics.paper_physics(), "
-                             "the setting closest to the paper's engine (docs/fidelity.md)")
+                        help="'default' (the default) = 'paper': the paper engine's physics "
+                             "(docs/fidelity.md); 'sphere' or 'legacy': earlier MuJoCo-contact "
+                             "models that need no C compiler (mjregen.physics)")
     parser.set_defaults(settle=None)
 
 
@@ -66,7 +67,8 @@ def add_physics_arguments(parser: argparse.ArgumentParser) -> None:
 
 def physics_from_args(args: argparse.Namespace):
     """The `Physics` that --physics and --settle describe."""
-    from mjregen.physics import Physics, paper_physics
+    from mjregen.physics import Physics, legacy_physics, paper_physics, sphere_physics
 
-    physics = paper_physics() if args.physics == "paper" else Physics()
+    presets = {"paper": paper_physics, "sphere": sphere_physics, "legacy": legacy_physics}
+    physics = presets.get(args.physics, Physics)()
     return physics if args.settle is None else physics.replace_scene(settle_time=args.settle)
