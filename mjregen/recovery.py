@@ -15,8 +15,15 @@ import numpy as np
 
 from mjregen.fileio import atomic_open
 from mjregen.grid import Robot
+from mjregen.nca import NCA
 from mjregen.physics import Physics
-from mjregen.regen import robot_similarity, similarity
+from mjregen.regen import (
+    RegrowthTask,
+    paper_cut,
+    robot_similarity,
+    similarity,
+    state_of_robot,
+)
 from mjregen.simulate import simulate
 
 ROLES = ("original", "damaged", "regrown")
@@ -63,15 +70,15 @@ class RecoveryReport:
             return "" if self.stable[role] else " (unstable)"
 
         return "\n".join([
-            f"| {name} | similarity (of {self.grid_cells}) | robot cells matching | voxels | "
-            f"distance original | damaged (% of original) | regrown (% of original) |",
+            (f"| {name} | similarity (of {self.grid_cells}) | robot cells matching | voxels | "
+            f"distance original | damaged (% of original) | regrown (% of original) |"),
             "|---|---|---|---|---|---|---|",
-            f"| {name} | {self.similarity['regrown']} (damaged {self.similarity['damaged']}) | "
+            (f"| {name} | {self.similarity['regrown']} (damaged {self.similarity['damaged']}) | "
             f"{100 * self.robot_similarity['regrown']:.1f} % | "
             f"{self.voxels['original']} / {self.voxels['damaged']} / {self.voxels['regrown']} | "
             f"{self.distance['original']:.2f}{flag('original')} | "
             f"{self.distance['damaged']:.2f} ({self.percent_of_original('damaged'):.0f} %){flag('damaged')} | "
-            f"{self.distance['regrown']:.2f} ({self.percent_of_original('regrown'):.0f} %){flag('regrown')} |",
+            f"{self.distance['regrown']:.2f} ({self.percent_of_original('regrown'):.0f} %){flag('regrown')} |"),
             "",
             f"Distances in voxel lengths over {self.duration:g} s of walking.",
         ])
@@ -106,6 +113,19 @@ def measure_recovery(robots: dict[str, Robot], *, physics: Physics | None = None
         stable={role: results[role].stable for role in ROLES},
         duration=float(physics.scene.timing(dim)[1] if duration is None else duration),
     )
+
+
+def regrowth_robots(original: Robot, regrowth: NCA) -> dict[str, Robot]:
+    """The paper's experiment on a given robot: cut it (`paper_cut`, grid x-indices 0–3
+    emptied), let `regrowth` (an NCA evolved to regrow it) grow from the damaged state.
+
+    Returns {"original", "damaged" (cleaned), "regrown"} robots, as `measure_recovery` takes.
+    """
+    damaged = paper_cut(state_of_robot(original, regrowth.config))
+    task = RegrowthTask(nca=regrowth.config, original=np.asarray(original.grid), damaged=damaged)
+    regrown = task.regrow(regrowth.genome).robot()
+    damaged_robot = Robot(damaged.state[0].numpy().astype(np.int8)).cleaned()
+    return {"original": original, "damaged": damaged_robot, "regrown": regrown}
 
 
 def write_report(report: RecoveryReport, folder: str | Path, *, name: str = "robot") -> list[Path]:

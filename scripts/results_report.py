@@ -52,6 +52,7 @@ TABLE_1_LATEX = r"""
 _ROW = re.compile(r"^\s*(\w+) \(([\w ]+)\)\s*&\s*\$?([\d.]+)\\%\$?\s*\((\d+)/(\d+)\)\s*&\s*([\d.]+)\s*&"
                   r"\s*([\d.]+)\s*\(\$([\d.]+)\\%\$\)\s*&\s*([\d.]+)\s*\(\$([\d.]+)\\%\$\)", re.MULTILINE)
 NAMES = {"ff": "feed-forward", "lstm": "LSTM"}
+PAPER_ROBOTS = ROOT / "assets" / "robots" / "paper"
 
 
 def parse_table_1(latex: str) -> list[dict]:
@@ -81,6 +82,11 @@ def fmt(value: float | None, digits: int = 3) -> str:
     if value is None or (isinstance(value, float) and not math.isfinite(value)):
         return "–"
     return f"{value:.{digits}g}"
+
+
+def percent(value: float | None) -> str:
+    """A percentage to whole percent ("–" when missing)."""
+    return fmt(value, 99) if value is None or not math.isfinite(value) else f"{value:.0f}"
 
 
 def _git() -> str:
@@ -375,18 +381,19 @@ class Report:
                          f"{100 * r['robot_similarity']['regrown']:.1f} % | "
                          f"{r['voxels']['original']}/{r['voxels']['damaged']}/{r['voxels']['regrown']} | "
                          f"{fmt(r['distance']['original'], 3)} | {fmt(r['distance']['damaged'], 3)} "
-                         f"({fmt(pct['damaged'], 2)} %) | {fmt(r['distance']['regrown'], 3)} "
-                         f"({fmt(pct['regrown'], 2)} %) | {run.generations_done} × pop "
+                         f"({percent(pct['damaged'])} %) | {fmt(r['distance']['regrown'], 3)} "
+                         f"({percent(pct['regrown'])} %) | {run.generations_done} × pop "
                          f"{run.config['ga']['population']} |")
                 self.facts.append(
                     f"Regrowth of {walker} ({NAMES.get(net, net)}): {sim}/{r['grid_cells']} cells; "
-                    f"damaged walks {fmt(pct['damaged'], 2)} % and regrown "
-                    f"{fmt(pct['regrown'], 2)} % of the original's {fmt(r['distance']['original'], 3)} "
+                    f"damaged walks {percent(pct['damaged'])} % and regrown "
+                    f"{percent(pct['regrown'])} % of the original's {fmt(r['distance']['original'], 3)} "
                     "voxel lengths.")
             durations = sorted({json.loads((f / "recovery.json").read_text())["duration"]
                                 for _, _, f in found})
             self.add("", f"Distances in voxel lengths over {'/'.join(f'{d:g}' for d in durations)} s "
                      "of walking (unstable runs show –).", "")
+        self.paper_robot_regrowth()
         self.add(f"**The paper's Table 1** ({source}; Voxelyze, robots of its own evolutions, "
                  "regrowth GA 1000 × 1000)", "",
                  "| robot (network) | similarity | original | damaged (% of original) | regrown (% of original) |",
@@ -398,6 +405,36 @@ class Report:
                      f"({row['regrown_percent']:g} %) |")
         self.add("")
         self.paper_rows = rows
+
+    def paper_robot_regrowth(self) -> None:
+        """Rows for the paper's own robots regrown by the shipped regrowth NCAs
+        (assets/regen/<robot>_<net>.npz), simulated now with today's default physics."""
+        from mjregen.checkpoint import load_nca
+        from mjregen.grid import Robot
+        from mjregen.recovery import measure_recovery, regrowth_robots
+
+        shipped = sorted(path for path in (self.args.assets / "regen").glob("*.npz")
+                         if (PAPER_ROBOTS / f"{path.stem.split('_')[0]}.npy").is_file())
+        if not shipped:
+            return
+        self.add("**The paper's robots, regrown by the shipped regrowth NCAs** (`assets/regen/`; "
+                 "the same cut; default physics, simulated by this script)", "",
+                 "| robot (regrowth network) | similarity | original | damaged (% of original) | "
+                 "regrown (% of original) |", "|---|---|---|---|---|")
+        for path in shipped:
+            robot_name, net = path.stem.split("_", 1)
+            nca, _ = load_nca(path)
+            report = measure_recovery(regrowth_robots(Robot.load(PAPER_ROBOTS / f"{robot_name}.npy"), nca))
+            sim, pct, dist = report.similarity["regrown"], report.to_dict()["percent_of_original"], report.distance
+            self.add(f"| {robot_name.capitalize()} ({NAMES.get(net, net)}) | "
+                     f"{100 * sim / report.grid_cells:.0f} % ({sim}/{report.grid_cells}) | "
+                     f"{fmt(dist['original'], 3)} | {fmt(dist['damaged'], 3)} ({percent(pct['damaged'])} %) | "
+                     f"{fmt(dist['regrown'], 3)} ({percent(pct['regrown'])} %) |")
+            self.facts.append(
+                f"The paper's {robot_name} regrown by the shipped NCA ({sim}/{report.grid_cells} cells): "
+                f"damaged walks {percent(pct['damaged'])} %, regrown {percent(pct['regrown'])} % of its "
+                f"{fmt(dist['original'], 3)} voxel lengths here.")
+        self.add("")
 
     def discussion(self) -> None:
         self.add("## Discussion", "", "Measured facts (written by the script):", "")

@@ -123,8 +123,16 @@ def test_a_tiny_2d_regrowth_evolution_improves_similarity():
 def test_shipped_tripod_regrowth_nca_regrows_the_tripod_exactly():
     from mjregen.checkpoint import load_nca
 
+    from mjregen.recovery import regrowth_robots
+
     nca, metadata = load_nca("assets/regen/tripod_ff.npz")
     tripod = Robot.load("assets/robots/paper/tripod.npy")
     task = RegrowthTask(nca=nca.config, original=tripod.grid, damaged=paper_cut(state_of_robot(tripod, nca.config)))
     regrown = task.regrow(nca.genome).grids[0]
     assert np.array_equal(regrown, tripod.grid) and metadata["similarity"] == 729
+    robots = regrowth_robots(tripod, nca)  # the same experiment, as the results report runs it
+    assert np.array_equal(robots["regrown"].grid, tripod.grid)
+    cut = tripod.grid.copy()
+    cut[:4] = 0  # the paper's cut: grid x-indices 0-3
+    assert np.array_equal(robots["damaged"].grid, Robot(cut).cleaned().grid)
+    assert robots["damaged"].n_voxels < tripod.n_voxels
