@@ -33,6 +33,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from mjregen import experiments as ex
+from mjregen import walkers as wk
 from mjregen.errors import MjregenError
 from mjregen.runs import RunFolderError
 
@@ -93,9 +94,9 @@ def describe(args: argparse.Namespace, jobs: list[ex.EvolutionJob], regen: bool)
                      f"{cpu / 3600 / max(args.workers, 1):.1f} h wall with {args.workers} "
                      "worker(s))")
     if regen:
-        walkers = ex.walkers_folder(args.root) / "walkers.json"
+        walkers = wk.walkers_folder(args.root) / "walkers.json"
         if walkers.is_file():
-            for job in ex.regen_jobs(scale, ex.load_or_pick_walkers(args.root), root=args.root,
+            for job in ex.regen_jobs(scale, wk.load_or_pick_walkers(args.root), root=args.root,
                                      population=args.regen_pop, generations=args.regen_gens,
                                      nets=tuple(args.regen_net) if args.regen_net else None):
                 lines.append(job.command())
@@ -104,7 +105,7 @@ def describe(args: argparse.Namespace, jobs: list[ex.EvolutionJob], regen: bool)
                               args.regen_gens or scale.regen_generations)
             nets = args.regen_net or scale.regen_nets or ["the walker's own"]
             lines.append(f"# regrowth: after the 3D evolutions, three walkers are picked into "
-                         f"{walkers.parent} (mjregen.experiments.pick_walkers), then per walker "
+                         f"{walkers.parent} (mjregen.walkers.pick_walkers), then per walker "
                          f"and network ({', '.join(nets)}):")
             lines.append(f"mjregen regen --checkpoint {walkers.parent}/walker_<i>.npz --net <net> "
                          f"--pop {ga.population} --gens {ga.generations} --truncation "
@@ -130,7 +131,7 @@ def run(args: argparse.Namespace) -> int:
               f", {time.perf_counter() - start:.0f} s so far", flush=True)
     if regen:
         scale = ex.SCALES[args.scale]
-        walkers = ex.load_or_pick_walkers(args.root)
+        walkers = wk.load_or_pick_walkers(args.root)
         print(f"walkers: {', '.join(w['name'] + ' = ' + w['run'] + ' gen ' + str(w['generation']) for w in walkers)}")
         for job in ex.regen_jobs(scale, walkers, root=args.root, population=args.regen_pop,
                                  generations=args.regen_gens,

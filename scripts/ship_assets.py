@@ -12,7 +12,7 @@ mjregen/torch/mujoco/numpy, git commit and sha256 of both files. tests/test_asse
 checks every such entry by growing and simulating again.
 
 --walkers: the three diverse 3D walkers of the regrowth experiment
-(`mjregen.experiments.load_or_pick_walkers`: picked once into <root>/walkers, see DIVERSITY
+(`mjregen.walkers.load_or_pick_walkers`: picked once into <root>/walkers, see DIVERSITY
 there) copied to assets/robots/walkers/walker_<i>.{npz,npy} with walkers.json, each
 re-measured like the NCAs and with its regrowth recovery when <root> has one.
 
@@ -40,6 +40,7 @@ from pathlib import Path
 import numpy as np
 
 from mjregen import experiments as ex
+from mjregen import walkers as wk
 from mjregen.errors import MjregenError
 from mjregen.fileio import atomic_open
 from mjregen.grid import Material, Robot
@@ -219,7 +220,7 @@ def _entry(name: str, run: ex.RunInfo, npz: Path, target: Path, measured: dict, 
         "distance": measured["distance"],
         "stable": measured["stable"],
         "robot": {"voxels": measured["voxels"], **measured["materials"],
-                  "pieces": ex.pieces(measured["robot"])},
+                  "pieces": wk.pieces(measured["robot"])},
         "tolerance": TOLERANCE,
         **stamp,
         "sha256": sha256(target),
@@ -229,7 +230,7 @@ def _entry(name: str, run: ex.RunInfo, npz: Path, target: Path, measured: dict, 
 
 def ship_walkers(root: Path, assets: Path, *, overwrite: bool) -> list[dict]:
     """Copy the regrowth experiment's walkers to assets/robots/walkers (module docstring)."""
-    walkers = ex.load_or_pick_walkers(root)
+    walkers = wk.load_or_pick_walkers(root)
     folder = assets / "robots" / "walkers"
     index = folder / "walkers.json"
     paths = [folder / f"{w['name']}{s}" for w in walkers for s in (".npz", ".npy")] + [index]
@@ -259,7 +260,7 @@ def ship_walkers(root: Path, assets: Path, *, overwrite: bool) -> list[dict]:
         print(f"    fitness {measured['fitness']:.6g}, distance {measured['distance']}, "
               f"{measured['voxels']} voxels -> {target}")
     with atomic_open(index, "w", overwrite=overwrite) as handle:
-        json.dump({"diversity": ex.DIVERSITY, "walkers": shipped}, handle, indent=2)
+        json.dump({"diversity": wk.DIVERSITY, "walkers": shipped}, handle, indent=2)
         handle.write("\n")
     print(f"wrote {index}")
     return shipped

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from mjregen import experiments as ex
+from mjregen import walkers as wk
 from mjregen.checkpoint import load_nca, save_nca
 from mjregen.cli import main as mjregen_main
 from mjregen.evolve import PRESETS
@@ -116,7 +117,7 @@ def results(tmp_path_factory) -> Path:
     genomes = rng.normal(0.0, 0.1, size=(24, config.genome_size)).astype(np.float32)
     grids = grow(config, genomes).grids
     usable = [i for i in np.argsort([np.count_nonzero(g) for g in grids])
-              if np.count_nonzero(grids[i]) and ex.pieces(Robot(grids[i])) == 1][:4]
+              if np.count_nonzero(grids[i]) and wk.pieces(Robot(grids[i])) == 1][:4]
     assert len(usable) == 4
     for seed, picks in enumerate((usable[:2], usable[2:])):
         run = ex.run_folder(root, "3d_ff", seed)
@@ -137,7 +138,7 @@ def results(tmp_path_factory) -> Path:
         with (run / "metrics.csv").open("w") as handle:
             handle.write(",".join(METRICS) + "\n")
             handle.writelines(",".join(str(r[k]) for k in METRICS) + "\n" for r in rows)
-    job, = ex.regen_jobs(SMOKE, ex.load_or_pick_walkers(root)[:1], root=root)
+    job, = ex.regen_jobs(SMOKE, wk.load_or_pick_walkers(root)[:1], root=root)
     assert ex.run_regen_job(job, progress=False) == 0  # regrowth of the first walker
     return root
 
@@ -146,17 +147,17 @@ def test_list_runs_and_walkers(results):
     runs = ex.list_runs(results)
     assert {n: len(r) for n, r in runs.items()} == {"2d_ff": 2, "2d_lstm": 1, "3d_ff": 2}
     assert all(r.complete for rs in runs.values() for r in rs)
-    walkers = ex.load_or_pick_walkers(results)
+    walkers = wk.load_or_pick_walkers(results)
     assert len(walkers) == 3 and len({w["npz"] for w in walkers}) == 3
-    farthest = max(ex.walker_candidates(results), key=lambda c: c.distance)
+    farthest = max(wk.walker_candidates(results), key=lambda c: c.distance)
     assert (walkers[0]["run"], walkers[0]["generation"]) == (str(farthest.run), farthest.generation)
     for w in walkers:
         assert Robot.load(w["npy"]) == load_nca(w["npz"])[0].grow().robot()
-    assert ex.load_or_pick_walkers(results) == walkers  # picked once
+    assert wk.load_or_pick_walkers(results) == walkers  # picked once
 
 
 def test_regrowth_job_writes_recovery(results):
-    walkers = ex.load_or_pick_walkers(results)
+    walkers = wk.load_or_pick_walkers(results)
     job, = ex.regen_jobs(SMOKE, walkers[:1], root=results)
     assert job.net == "ff" and job.out == results / "regen_walker_1_ff" / "seed_0"
     assert job.complete  # run by the fixture; running it again is a no-op
