@@ -1,7 +1,8 @@
 """Speed report (#8): CPU and wall time per locomotion evaluation, per backend and robot.
 
 For each robot of a fixed set (2D 5×5, 3D 112-voxel slab with and without hard voxels, the
-7×7×7 block, the paper's biped/tripod/multiped) and each bond backend: median over
+7×7×7 block, the paper's biped/tripod/multiped, the shipped evolved 3D walkers) and each
+bond backend: median over
 `--repeats` full `simulate` calls (compile included) of CPU and wall seconds, µs per step,
 steps, and the ratio to the paper engine's optimised cost (0.0125·N CPU-s per 0.55 s
 evaluation of N voxels, measured on this machine; <1 = faster). Our overhead around MuJoCo:
@@ -51,6 +52,8 @@ def robots() -> dict[str, Robot]:
            "block_3d_7x7x7": Robot.from_body(block)}
     for name in ("tripod", "biped", "multiped"):
         out[f"paper_{name}"] = Robot(np.load(ROOT / "assets" / "robots" / "paper" / f"{name}.npy"))
+    for path in sorted((ROOT / "assets" / "nca").glob("walker_3d_*.npy")):  # evolved walkers
+        out[f"evolved_{path.stem}"] = Robot.load(path)
     return out
 
 
