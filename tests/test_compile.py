@@ -40,6 +40,8 @@ def test_engine_contacts_are_native_no_mujoco_contacts_or_viscosity():
     model, table = compiled.native_model, compiled.floor
     assert table is not None and model.npair == 0 and model.nuserdata == 27
     assert np.all(model.geom_contype == 0) and model.opt.viscosity == 0.0
+    skipped = mujoco.mjtDisableBit.mjDSBL_CONTACT | mujoco.mjtDisableBit.mjDSBL_CONSTRAINT
+    assert model.opt.disableflags & skipped == skipped  # nothing for MuJoCo to collide
     assert table.surface.sum() == 26 and not table.surface[13]  # the centre voxel is inside
     assert table.collision_radius == pytest.approx(0.625e-3)
     assert table.stiffness == pytest.approx(np.full(27, 2.0 * 1e7 * 1e-3))
@@ -47,7 +49,7 @@ def test_engine_contacts_are_native_no_mujoco_contacts_or_viscosity():
     # drag 2ζ sqrt(m E L) = 2·0.001·sqrt(1e-3 kg · 1e4 N/m) = 6.3246e-3 N s/m (c/m = 6.32/s)
     assert table.drag_linear == pytest.approx(6.3246e-3, rel=1e-5)
     exported = compiled.model
-    assert exported.npair == 27 and exported.opt.viscosity > 0
+    assert exported.npair == 27 and exported.opt.viscosity > 0 and exported.opt.disableflags == 0
     assert (exported.geom_contype == 1).sum() == 26
 
 

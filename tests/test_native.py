@@ -122,3 +122,17 @@ def test_native_needs_euler():
     compiled = compile_robot(Robot.from_body(SLAB), physics=CONTACTS.replace_scene(
         integrator="rk4", bond_backend="auto"))
     assert compiled.bond_backend == "tendon"  # auto falls back
+
+
+def test_skipping_mujocos_contact_stages_changes_nothing():
+    """The default model disables MuJoCo's collision and constraint stages (everything that
+    touches is native): stepping with them enabled gives bit-identical states."""
+    compiled = compile_robot(Robot.load("assets/robots/paper/tripod.npy"))
+    assert compiled.native_model.opt.disableflags != 0
+    fast = simulation_of(compiled)
+    assert fast.run(3000) == ""
+    compiled.native_model.opt.disableflags = 0
+    full = simulation_of(compiled)
+    assert full.run(3000) == ""
+    assert np.array_equal(fast.data.qpos, full.data.qpos)
+    assert np.array_equal(fast.data.qvel, full.data.qvel)
