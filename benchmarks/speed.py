@@ -1,8 +1,10 @@
-"""Speed report (#8): CPU and wall time per locomotion evaluation, per backend and robot.
+"""Speed report (#8): CPU and wall time per locomotion evaluation, per model and robot.
 
 For each robot of a fixed set (2D 5×5, 3D 112-voxel slab with and without hard voxels, the
 7×7×7 block, the paper's biped/tripod/multiped, the shipped evolved 3D walkers) and each
-bond backend: median over
+model (`MODELS`: the default, where bonds, floor, self-collision and drag are one C loop; the
+same physics with MuJoCo doing floor contacts, self-collision and drag; everything in
+MuJoCo, i.e. the exported MJCF): median over
 `--repeats` full `simulate` calls (compile included) of CPU and wall seconds, µs per step,
 steps, and the ratio to the paper engine's optimised cost (0.0125·N CPU-s per 0.55 s
 evaluation of N voxels, measured on this machine; <1 = faster). Our overhead around MuJoCo:
@@ -10,7 +12,7 @@ the same model and state stepped by one bare ``mj_step(model, data, nstep=steps)
 (bonds registered, no Python per step, no compile) vs `simulate`'s total CPU time. And a
 population's throughput (evaluations/s) with 1 and 2 worker processes (`ProcessBackend`).
 
-    /work/venv/bin/python benchmarks/speed.py [--repeats 3] [--backends native tendon]
+    /work/venv/bin/python benchmarks/speed.py [--repeats 3] [--models default mujoco-contacts]
         [--robots slab_112 ...] [--json docs/performance.json] [--md docs/performance_results.md]
 """
 
@@ -36,6 +38,12 @@ from mjregen.simulate import simulate, simulation_of
 ROOT = Path(__file__).resolve().parents[1]
 VOXELYZE_CPU_S_PER_VOXEL = 0.0125  # optimised paper engine, per 0.55 s evaluation
 VOXELYZE_UNOPTIMISED = 0.087  # the paper's own binary
+MUJOCO_CONTACTS = {"contact_shape": "point"}  # MuJoCo point floor, collision spheres, viscosity
+MODELS = {
+    "default": {},
+    "mujoco-contacts": MUJOCO_CONTACTS,
+    "tendon": {**MUJOCO_CONTACTS, "bond_backend": "tendon"},
+}
 
 
 def robots() -> dict[str, Robot]:
@@ -113,18 +121,18 @@ def markdown(report: dict) -> str:
              f"{report['repeats']} runs; CPU s per evaluation (compile + 0.05 s settle + 0.5 s "
              "walk in 3D; 1 s + 0.25 s in 2D). Voxelyze = 0.0125·N CPU-s (optimised paper "
              "engine on this machine); ratio < 1 is faster.", "",
-             "| robot | N | backend | steps | µs/step | µs/voxel/step | CPU s | wall s | "
+             "| robot | N | model | steps | µs/step | µs/voxel/step | CPU s | wall s | "
              "compile s | bare mj_step s | overhead | ratio to Voxelyze |",
              "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for name, rows in report["robots"].items():
-        for backend, r in rows.items():
+        for model, r in rows.items():
             lines.append(
-                f"| {name} | {r['voxels']} | {backend} | {r['steps']} | {r['us_per_step']:.1f} "
+                f"| {name} | {r['voxels']} | {model} | {r['steps']} | {r['us_per_step']:.1f} "
                 f"| {r['us_per_voxel_step']:.2f} | {r['cpu_s']:.2f} | {r['wall_s']:.2f} | "
                 f"{r['compile_cpu_s']:.3f} | {r['bare_mj_step_cpu_s']:.2f} | "
                 f"{100 * r['overhead_vs_bare']:+.1f} % | {r['ratio_to_voxelyze']:.2f} |")
     if report.get("population"):
-        lines += ["", "Population throughput (" + report["population_robot"] + ", native):", "",
+        lines += ["", "Population throughput (" + report["population_robot"] + ", default):", "",
                   "| workers | evaluations | wall s | evaluations/s |", "|---|---|---|---|"]
         for p in report["population"]:
             lines.append(f"| {p['workers']} | {p['evaluations']} | {p['wall_s']:.1f} | "
@@ -135,7 +143,8 @@ def markdown(report: dict) -> str:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--backends", nargs="+", default=["native", "tendon"])
+    parser.add_argument("--models", nargs="+", default=["default", "mujoco-contacts"],
+                        choices=sorted(MODELS))
     parser.add_argument("--robots", nargs="+", help="subset of robot names")
     parser.add_argument("--population", type=int, default=8,
                         help="population size for the 1- vs 2-worker throughput (0: skip)")
@@ -148,14 +157,14 @@ def main() -> None:
                          f"{os.cpu_count()} cores", "robots": {}}
     for name, robot in selected.items():
         report["robots"][name] = {}
-        for backend in args.backends:
-            physics = Physics().replace_scene(bond_backend=backend)
+        for model in args.models:
+            physics = Physics().replace_scene(**MODELS[model])
             row = measure(name, robot, physics, args.repeats)
-            report["robots"][name][backend] = row
-            print(name, backend, json.dumps(row), flush=True)
+            report["robots"][name][model] = row
+            print(name, model, json.dumps(row), flush=True)
     if args.population:
         robot_name = "paper_tripod"
-        physics = Physics().replace_scene(bond_backend="native")
+        physics = Physics()
         report["population_robot"] = robot_name
         report["population"] = [population(robots()[robot_name], physics, args.population, w)
                                 for w in (1, 2)]
