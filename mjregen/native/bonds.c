@@ -5,10 +5,11 @@
    as forces added to qfrc_passive from MuJoCo's passive-force callback, on a model that has
    the same bodies but no sites or tendons. MuJoCo keeps bodies, contacts and integration.
 
-   Optionally (`floor`) it also computes the paper engine's floor for every voxel (penalty
-   spring and damper on the centre's penetration below the voxel's current half size,
-   static/kinetic friction with a stick state per voxel kept in `d->userdata`), so MuJoCo
-   then has no floor contacts at all.
+   With the paper engine's contacts (`Scene.contact_shape` "engine") it also computes, in this
+   order, the voxels' drag, their self-collision and the engine's floor (penalty spring and
+   damper on the centre's penetration below the voxel's current half size, static/kinetic
+   friction with a stick state per voxel kept in `d->userdata`); MuJoCo then has no contact
+   or constraint at all and only integrates the bodies.
 
    State is per mjData: `mjr_register(d, bonds)` before stepping, `mjr_unregister(d)` after;
    the callback does nothing for an unregistered mjData (so other models are unaffected).
@@ -341,6 +342,10 @@ static void self_collision(const mjrBonds* b, double ep, double em) {
   }
 }
 
+/* m/s: a sticking voxel's horizontal speed is zeroed every step (to ~1e-20); faster means an
+   outside impulse (someone wrote qvel), which releases it */
+#define KICKED 1e-9
+
 /* The paper engine's floor (Voxelyze CVX_Voxel::floorForce and the friction part of
    timeStep), added to the voxels' forces in scratch. Per voxel touching the floor (centre
    below its current half size, which shrinks with the voxel's own muscle strain):
@@ -348,14 +353,10 @@ static void self_collision(const mjrBonds* b, double ep, double em) {
    the spring part N = k*pen: a sticking voxel stays put (its horizontal velocity is
    cancelled within the step) until the other horizontal forces exceed mu_s*N; a sliding
    one feels mu_k*N against its horizontal velocity and sticks when that would stop it
-   within the step (work-energy test of the engine). Other horizontal forces are the bonds',
-   what qfrc_passive already holds (drag), qfrc_applied and gravity (voxel bodies have their
-   centre of mass at the joint, so no other bias force acts on their translation); contact
-   forces of self-collision are not known here (MuJoCo solves them later). Stick flags live in d->userdata[0 .. nvox-1]. */
-/* m/s: a sticking voxel's horizontal speed is zeroed every step (to ~1e-20); faster means an
-   outside impulse (someone wrote qvel), which releases it */
-#define KICKED 1e-9
-
+   within the step (work-energy test of the engine). The other horizontal forces are all
+   known here: bonds, drag and self-collision (already in scratch), qfrc_passive and
+   qfrc_applied, and gravity (voxel bodies have their centre of mass at the joint, so no
+   other bias force acts on their translation). Stick flags: d->userdata[0 .. nvox-1]. */
 static void engine_floor(const mjrBonds* b, const mjModel* mdl, mjData* d, double ep,
                          double em) {
   int planar = b->dim == 3;
