@@ -170,7 +170,7 @@ class NativeBonds:
 
     def __init__(self, model: mujoco.MjModel, table, *, voxel_bodies: np.ndarray,
                  dim: int, muscles=None, scene=None, actuation_start: float = 0.0,
-                 floor=None, external_strains: bool = False) -> None:
+                 engine_contacts=None, external_strains: bool = False) -> None:
         n_vox = len(voxel_bodies)
         qadr = np.full(n_vox, -1, dtype=np.int32)
         vadr = np.full(n_vox, -1, dtype=np.int32)
@@ -196,30 +196,32 @@ class NativeBonds:
             struct.voxel_size = scene.voxel_size
             struct.contract = int(scene.waveform == "contract")
             struct.omega = 2.0 * np.pi * scene.frequency
-        if floor is not None:
+        contacts = engine_contacts
+        if contacts is not None:
             if model.nuserdata < n_vox:
                 raise ValueError(f"the engine floor keeps a stick flag per voxel in "
                                  f"MjData.userdata: the model needs nuserdata >= {n_vox}, "
                                  f"has {model.nuserdata}")
-            self.arrays.update(fk=floor.stiffness, fc=floor.damping, mu_s=floor.static_friction,
-                               mu_k=floor.kinetic_friction, mass=floor.mass,
-                               half_p=floor.half_plus, half_m=floor.half_minus)
-            struct.floor = int(floor.floor)
-            struct.waves = int(np.any(floor.half_plus) or np.any(floor.half_minus))
-            struct.drag_lin, struct.drag_rot = floor.drag_linear, floor.drag_rotational
-            colliders = int(np.count_nonzero(floor.surface))
-            if floor.collision_radius > 0.0 and colliders > 1:
+            self.arrays.update(fk=contacts.stiffness, fc=contacts.damping,
+                               mu_s=contacts.static_friction, mu_k=contacts.kinetic_friction,
+                               mass=contacts.mass, half_p=contacts.half_plus,
+                               half_m=contacts.half_minus)
+            struct.floor = int(contacts.floor)
+            struct.waves = int(np.any(contacts.half_plus) or np.any(contacts.half_minus))
+            struct.drag_lin, struct.drag_rot = contacts.drag_linear, contacts.drag_rotational
+            colliders = int(np.count_nonzero(contacts.surface))
+            if contacts.collision_radius > 0.0 and colliders > 1:
                 length = scene.voxel_size
-                largest = 1.0 + 2.0 * max(float(np.max(floor.half_plus)),
-                                          float(np.max(floor.half_minus))) / length
+                largest = 1.0 + 2.0 * max(float(np.max(contacts.half_plus)),
+                                          float(np.max(contacts.half_minus))) / length
                 self.arrays.update(
-                    grid=np.ascontiguousarray(floor.grid_index, dtype=np.int32),
-                    surface=floor.surface.astype(np.int32), coll_ref=np.zeros((n_vox, 3)),
+                    grid=np.ascontiguousarray(contacts.grid_index, dtype=np.int32),
+                    surface=contacts.surface.astype(np.int32), coll_ref=np.zeros((n_vox, 3)),
                     coll_pairs=np.zeros((colliders * (colliders - 1) // 2, 2), dtype=np.int32),
                     coll_count=np.zeros(2, dtype=np.int32))
                 struct.collide = 1
-                struct.coll_radius = floor.collision_radius
-                struct.coll_reach = 2.0 * floor.collision_radius * largest
+                struct.coll_radius = contacts.collision_radius
+                struct.coll_reach = 2.0 * contacts.collision_radius * largest
                 struct.coll_skin = COLLISION_SKIN * length
         if muscles is not None and muscles.count:
             length = muscles.voxel_size

@@ -122,7 +122,7 @@ class BondTable:
 
 
 @dataclass(frozen=True)
-class FloorTable:
+class EngineContacts:
     """What the native loop computes besides the bonds with `Scene.contact_shape` "engine":
     the paper engine's floor, its self-collision and its drag (voxels in body order).
 
@@ -157,9 +157,9 @@ class FloorTable:
     drag_rotational: float
 
 
-def _engine_table(physics: Physics, materials: list[Material], masses: np.ndarray,
-                  grid_index: np.ndarray, surface: np.ndarray, viscosity: float) -> FloorTable:
-    """`FloorTable` of voxels with these materials, masses and grid places."""
+def _engine_contacts(physics: Physics, materials: list[Material], masses: np.ndarray,
+                  grid_index: np.ndarray, surface: np.ndarray, viscosity: float) -> EngineContacts:
+    """`EngineContacts` of voxels with these materials, masses and grid places."""
     scene = physics.scene
     L = scene.voxel_size
     props = [physics.materials[m] for m in materials]
@@ -168,7 +168,7 @@ def _engine_table(physics: Physics, materials: list[Material], masses: np.ndarra
     sign = np.array([p.phase_sign for p in props])
     index3 = np.zeros((len(materials), 3), dtype=np.int32)
     index3[:, 3 - grid_index.shape[1]:] = grid_index
-    return FloorTable(
+    return EngineContacts(
         stiffness=scene.contact_stiffness * EL,
         damping=scene.contact_damping * 2.0 * np.sqrt(masses * EL),
         static_friction=np.array([p.friction for p in props], dtype=float),
@@ -201,8 +201,8 @@ class CompiledRobot:
       native_model: with the native backend, the model that `simulation_of` steps: the same
         bodies, joints and contacts without sites, tendons or actuators (bond forces come
         from `mjregen.bonds_native`); None with the tendon backend.
-      floor: with contact_shape "engine" (native backend), what the native loop computes
-        besides the bonds: floor, self-collision, drag (`FloorTable`); else None.
+      engine_contacts: with contact_shape "engine" (native backend), what the native loop computes
+        besides the bonds: floor, self-collision, drag (`EngineContacts`); else None.
 
     With the native backend the tendon `spec` and `model` are built on first access.
     """
@@ -217,7 +217,7 @@ class CompiledRobot:
     bonds: BondTable
     bond_backend: str = "tendon"
     native_model: mujoco.MjModel | None = None
-    floor: FloorTable | None = None
+    engine_contacts: EngineContacts | None = None
     _tendon: dict = field(default_factory=dict, repr=False, compare=False)
 
     @property
@@ -483,8 +483,8 @@ def compile_robot(
         body_ids=np.array([model.body(body.name).id for body in bodies]),
         masses=masses, muscles=muscles, n_bonds=len(bonds), bonds=table,
         bond_backend=backend, native_model=None if tendons else model,
-        floor=_engine_table(physics, [m for _, m in voxels], masses, grid_index, surface,
-                            viscosity) if engine else None,
+        engine_contacts=_engine_contacts(physics, [m for _, m in voxels], masses, grid_index, surface,
+                                         viscosity) if engine else None,
         _tendon=lazy)
 
 

@@ -88,7 +88,8 @@ class RobotEnv(dm_env.Environment):
             self._model = compiled.native_model
             self._sim = Simulation(self._model, scene=scene, muscles=compiled.muscles,
                                    actuation_start=0.0, bonds=compiled.bonds,
-                                   voxel_bodies=compiled.body_ids, floor=compiled.floor,
+                                   voxel_bodies=compiled.body_ids,
+                                   engine_contacts=compiled.engine_contacts,
                                    external_strains=True)
         else:
             self._model = copy.copy(compiled.model)  # its muscle rest lengths are rewritten

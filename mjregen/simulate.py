@@ -19,7 +19,7 @@ import mujoco
 import numpy as np
 from numpy.typing import ArrayLike
 
-from mjregen.compile import BondTable, CompiledRobot, FloorTable, MuscleTendons, compile_robot
+from mjregen.compile import BondTable, CompiledRobot, EngineContacts, MuscleTendons, compile_robot
 from mjregen.grid import Robot
 from mjregen.physics import Physics, PhysicsParameterError, Scene
 
@@ -86,8 +86,8 @@ class Simulation:
       bonds: the robot's `BondTable` to simulate natively (its `model` must then be the
         tendon-free `native_model`); None: the model's own tendons carry the bonds.
       voxel_bodies: with `bonds`, the voxels' body ids (`CompiledRobot.body_ids`).
-      floor: with `bonds`, the engine floor to compute in the same loop (`FloorTable`;
-        the model then has no floor contacts).
+      engine_contacts: with `bonds`, the engine's floor, self-collision and drag to compute
+        in the same loop (`EngineContacts`; the model then has no MuJoCo contacts).
       external_strains: with `bonds`, the muscle strains (e₊, e₋) come from
         `strain_input`, written by the caller (e.g. a controller), not from the waveform.
     """
@@ -96,7 +96,8 @@ class Simulation:
                  muscles: MuscleTendons | None, actuation_start: float,
                  bonds: BondTable | None = None,
                  voxel_bodies: np.ndarray | None = None,
-                 floor: FloorTable | None = None, external_strains: bool = False) -> None:
+                 engine_contacts: EngineContacts | None = None,
+                 external_strains: bool = False) -> None:
         self.model = model
         self.data = mujoco.MjData(model)
         self.steps = 0
@@ -117,7 +118,8 @@ class Simulation:
                 else 2
             native = NativeBonds(model, bonds, voxel_bodies=np.asarray(voxel_bodies), dim=dim,
                                  muscles=muscles, scene=scene, actuation_start=actuation_start,
-                                 floor=floor, external_strains=external_strains)
+                                 engine_contacts=engine_contacts,
+                                 external_strains=external_strains)
             native.attach(self, self.data)
             self.strain_input = native.arrays.get("strain_in")  # (2,) or None
         elif muscles is not None:
@@ -234,7 +236,8 @@ def simulation_of(compiled: CompiledRobot) -> Simulation:
     if compiled.native_model is not None:
         return Simulation(compiled.native_model, scene=scene, muscles=compiled.muscles,
                           actuation_start=settle, bonds=compiled.bonds,
-                          voxel_bodies=compiled.body_ids, floor=compiled.floor)
+                          voxel_bodies=compiled.body_ids,
+                          engine_contacts=compiled.engine_contacts)
     return Simulation(compiled.model, scene=scene, muscles=compiled.muscles,
                       actuation_start=settle)
 

@@ -32,12 +32,12 @@ def test_3d_structure_body_per_voxel_free_joint_8_tendons_per_bond():
 
 def test_engine_contacts_are_native_no_mujoco_contacts_or_viscosity():
     """Default physics: floor, self-collision (surface voxels, 0.625 L spheres) and drag are
-    computed natively (`FloorTable`); the native model has no contact geoms, no pairs, no
+    computed natively (`EngineContacts`); the native model has no contact geoms, no pairs, no
     viscosity, and a stick flag per voxel in MjData.userdata. The exported tendon model
     keeps MuJoCo equivalents (point contacts, collision spheres, viscosity)."""
     robot = Robot.from_body(np.ones((3, 3, 3), dtype=np.int8))  # 26 surface voxels + 1
     compiled = compile_robot(robot)
-    model, table = compiled.native_model, compiled.floor
+    model, table = compiled.native_model, compiled.engine_contacts
     assert table is not None and model.npair == 0 and model.nuserdata == 27
     assert np.all(model.geom_contype == 0) and model.opt.viscosity == 0.0
     skipped = mujoco.mjtDisableBit.mjDSBL_CONTACT | mujoco.mjtDisableBit.mjDSBL_CONSTRAINT
