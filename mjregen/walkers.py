@@ -21,9 +21,12 @@ from mjregen.experiments import CONDITIONS, DEFAULT_ROOT, list_runs
 from mjregen.fileio import atomic_open
 from mjregen.grid import Material, Robot
 
+MIN_WALK = 0.25  # a walker covers at least this fraction of the farthest candidate's distance
 DIVERSITY = (
     "Candidates: every distinct best-of-generation robot of the 3D runs that walked (distance > 0) "
-    "and is one face-connected piece. Pool: the 30 that walked farthest. Features: voxel count; "
+    "and is one face-connected piece. Pool: the 30 that walked farthest, of those that walked at "
+    "least a quarter of the farthest one's distance (so every pick is a real walker, not a "
+    "morphological outlier that stands still). Features: voxel count; "
     "fractions of soft, hard, muscle + and muscle - voxels; feet (face-connected pieces of the "
     "lowest layer); length, width and height in voxels; each standardised over the pool. "
     "Greedy farthest-point selection: the farthest walker first, then repeatedly the candidate "
@@ -129,12 +132,15 @@ def walker_candidates(root: str | Path = DEFAULT_ROOT) -> list[Candidate]:
 
 
 def pick_walkers(candidates: list[Candidate], *, count: int = 3, pool: int = 30) -> list[Candidate]:
-    """Good and diverse walkers: the `pool` candidates that walked farthest, then greedy
-    farthest-point selection in the space of `FEATURES`, each standardised over the pool
-    (z-scores; constant features drop out): the farthest walker first, then repeatedly the
-    candidate whose smallest distance to those already picked is largest (ties: farther
-    walker). Fewer than `count` if there are fewer candidates."""
+    """Good and diverse walkers: of the candidates that walked at least `MIN_WALK` × the
+    farthest one's distance, the `pool` that walked farthest; then greedy farthest-point
+    selection in the space of `FEATURES`, each standardised over the pool (z-scores;
+    constant features drop out): the farthest walker first, then repeatedly the candidate
+    whose smallest distance to those already picked is largest (ties: farther walker).
+    Fewer than `count` if there are fewer such walkers."""
     ranked = sorted(candidates, key=lambda c: (-c.distance, c.condition, c.seed, c.generation))
+    if ranked:
+        ranked = [c for c in ranked if c.distance >= MIN_WALK * ranked[0].distance]
     ranked = ranked[:pool]
     if not ranked:
         return []
