@@ -169,7 +169,7 @@ class Report:
                  "folder as the script).", "")
 
     def settings(self) -> None:
-        from mjregen.physics import Physics, paper_physics
+        from mjregen.physics import PAPER_TIMES, Physics, paper_physics
 
         self.add("## Settings: what was run, against the paper", "",
                  "| condition | paper: pop × gens × runs | here: pop × gens (finished) × runs | "
@@ -190,10 +190,14 @@ class Report:
             task = runs[0].config["task"]
             physics = task.get("physics", {})
             settle = physics.get("scene", {}).get("settle_time") if isinstance(physics, dict) else None
-            timing = (f"settle {fmt(settle) if settle is not None else 'paper'} s, walk "
-                      f"{fmt(task.get('duration')) if task.get('duration') is not None else 'paper'} s")
+            paper_settle, paper_walk = PAPER_TIMES[condition.dim]
+            settle_s = paper_settle if settle is None else settle
+            walk_s = paper_walk if task.get("duration") is None else task["duration"]
+            same = (settle_s, walk_s) == (paper_settle, paper_walk)
+            timing = (f"settle {fmt(settle_s)} s + walk {fmt(walk_s)} s"
+                      + (" (the paper's)" if same else ""))
             if physics == Physics().replace_scene(settle_time=settle).to_dict():
-                default = "today's default physics"
+                default = "today's default physics (= `paper_physics()`)"
             elif physics == paper_physics().replace_scene(settle_time=settle).to_dict():
                 default = "`paper_physics()`"
             else:
