@@ -121,10 +121,11 @@ SCALES: dict[str, Scale] = {
         population={2: 300, 3: 100}, generations={2: 500, 3: 300}, runs={2: 10, 3: 24},
         regen_population=1000, regen_generations=1000, regen_nets=NETS),
     "quick": Scale(
-        "quick", "reduced to fit ~1 h on 2 cores: 2D pop 20 x 10 gens x 3 runs, 3D pop 10 x 6 gens "
-        "x 3 runs, regrowth pop 200 x 100 gens with the walker's own network",
-        population={2: 20, 3: 10}, generations={2: 10, 3: 6}, runs={2: 3, 3: 3},
-        regen_population=200, regen_generations=100),
+        "quick", "the shipped results, ~75 min on 2 cores (two conditions at a time, one core "
+        "each): 2D pop 20 x 12 gens x 3 runs, 3D pop 12 x 9 gens x 4 runs, regrowth pop 300 x "
+        "120 gens with the walker's own network",
+        population={2: 20, 3: 12}, generations={2: 12, 3: 9}, runs={2: 3, 3: 4},
+        regen_population=300, regen_generations=120),
     "smoke": Scale(
         "smoke", "seconds of work for tests: pop 4 x 2 gens x 2 runs, 0.01 s settle + 0.02 s walks",
         population={2: 4, 3: 4}, generations={2: 2, 3: 2}, runs={2: 2, 3: 2},

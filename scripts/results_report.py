@@ -157,7 +157,7 @@ class Report:
                  "python scripts/ship_assets.py --best --walkers --overwrite --replace-default",
                  "python scripts/results_report.py",
                  "```",
-                 "At the reduced scale of this document (`--scale quick`, about an hour on two "
+                 "At the reduced scale of this document (`--scale quick`, about 75 minutes on two "
                  "cores), as the settings table below states:",
                  "```bash",
                  "python scripts/paper_experiments.py --scale quick --workers 2",
