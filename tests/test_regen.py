@@ -1,5 +1,7 @@
 """Regeneration: damage operators, identity regrowth, similarity, a tiny regrowth evolution."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 import torch
@@ -136,3 +138,25 @@ def test_shipped_tripod_regrowth_nca_regrows_the_tripod_exactly():
     cut[:4] = 0  # the paper's cut: grid x-indices 0-3
     assert np.array_equal(robots["damaged"].grid, Robot(cut).cleaned().grid)
     assert robots["damaged"].n_voxels < tripod.n_voxels
+
+
+@pytest.mark.parametrize("name", ["walker_1", "walker_2", "walker_3"])
+def test_shipped_walker_regrowth_ncas_regrow_what_walkers_json_records(name):
+    """The regrowth experiment of docs/results.md, replayed from assets: the walker's grown
+    CA state, the paper's cut, the shipped regrowth NCA; the similarities match the record."""
+    import json
+
+    from mjregen.checkpoint import load_nca
+    from mjregen.regen import similarity, state_of_growth
+
+    record = next(w for w in json.loads(Path("assets/robots/walkers/walkers.json").read_text())["walkers"]
+                  if w["name"] == name)
+    walker, _ = load_nca(f"assets/robots/walkers/{name}.npz")
+    growth = walker.grow()
+    damaged = paper_cut(state_of_growth(growth))
+    regrowth, _ = load_nca(f"assets/regen/{name}_ff.npz")
+    task = RegrowthTask(nca=regrowth.config, original=growth.grids[0], damaged=damaged)
+    regrown = task.regrow(regrowth.genome).grids
+    expected = record["regrowth"]["ff"]["similarity"]
+    assert int(similarity(regrown, growth.grids[0])[0]) == expected["regrown"]
+    assert regrown[0].any()
