@@ -36,10 +36,12 @@ UNITS = {"distance": (1.0, "vox"), "sag_max_t": (1e3, "ms"), "stop_after": (1e3,
 
 def physics_from_args(args: argparse.Namespace) -> Physics:
     physics = PRESETS[args.preset]()
-    if args.friction is not None:
-        physics = Physics(materials={m: dataclasses.replace(p, friction=args.friction)
-                                     for m, p in physics.materials.items()},
-                          scene=physics.scene)
+    if args.friction is not None:  # the static coefficient; kinetic capped at it
+        physics = Physics(materials={
+            m: dataclasses.replace(p, friction=args.friction, kinetic_friction=None
+                                   if p.kinetic_friction is None
+                                   else min(p.kinetic_friction, args.friction))
+            for m, p in physics.materials.items()}, scene=physics.scene)
     changes = {}
     for item in args.scene:
         key, _, value = item.partition("=")

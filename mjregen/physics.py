@@ -88,6 +88,10 @@ class MaterialProperties:
         _check("friction", self.friction, low=0.0, low_open=False)
         if self.kinetic_friction is not None:
             _check("kinetic_friction", self.kinetic_friction, low=0.0, low_open=False)
+            if self.kinetic_friction > self.friction:
+                raise PhysicsParameterError(
+                    f"kinetic_friction {self.kinetic_friction} exceeds friction (the static "
+                    f"coefficient) {self.friction}; set both, kinetic <= static")
         _check("strain_amplitude", self.strain_amplitude, low=0.0, high=1.0, low_open=False,
                high_open=True)
         if self.phase_sign not in (-1, 0, 1) or isinstance(self.phase_sign, bool):

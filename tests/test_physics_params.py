@@ -49,6 +49,8 @@ def test_timestep_rule_is_the_euler_limit_of_the_damped_bond_network():
     (dict(youngs_modulus=1e7, density=0.0), "density"),
     (dict(youngs_modulus=1e7, poisson_ratio=0.5), "poisson_ratio"),
     (dict(youngs_modulus=1e7, friction=-0.1), "friction"),
+    (dict(youngs_modulus=1e7, friction=0.3), "kinetic_friction"),  # kinetic 0.5 > static 0.3
+    (dict(youngs_modulus=1e7, kinetic_friction=-0.1), "kinetic_friction"),
     (dict(youngs_modulus=1e7, strain_amplitude=0.14), "muscle"),
     (dict(youngs_modulus=1e7, strain_amplitude=1.2, phase_sign=1), "strain_amplitude"),
     (dict(youngs_modulus=1e7, strain_amplitude=0.1, phase_sign=2), "phase_sign"),
