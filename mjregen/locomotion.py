@@ -31,6 +31,8 @@ class LocomotionTask:
       nca: the NCA configuration the genomes belong to.
       physics: materials and scene of the simulation.
       duration: s of actuation measured; None = the scene's (the paper's 0.5 s / 0.25 s).
+      cache_size: robots whose results are kept across generations (least recently used
+        dropped first); a robot seen again is not simulated again.
     """
 
     nca: NCAConfig
@@ -60,7 +62,7 @@ class LocomotionTask:
             evaluate_robot,
             [RobotJob(grids[firsts[d]], self.physics, self.duration) for d in to_simulate],
         )
-        for d, result in cached.items():
+        for d in cached:
             self._cache.move_to_end(keys[d])
         for d, outcome in zip(to_simulate, outcomes):
             if outcome.ok:  # failures are not results: they are retried next time
