@@ -24,6 +24,19 @@ def bar(n: int, material: int, *, dim: int, axis: int) -> Robot:
     return Robot.from_body(np.full(shape, material, dtype=np.int8))
 
 
+def dropped_voxel(physics: Physics, seconds: float, dim: int = 3) -> tuple[np.ndarray, np.ndarray, float]:
+    """(t, COM ``(n, 3)``, dt) of a soft voxel dropped with its bottom 5 mm above the floor,
+    recorded at the start of every step for `seconds`."""
+    compiled = compile_robot(Robot.from_body(np.ones((1,) * dim, dtype=np.int8)),
+                             physics=physics, elevation=5e-3)
+    sim = simulation_of(compiled)
+    dt = compiled.timestep
+    n = round(seconds / dt)
+    com = np.empty((n, 3))
+    assert sim.run(n, com=com) == ""
+    return np.arange(n) * dt, com, dt
+
+
 @pytest.mark.parametrize("dim", [2, 3])
 def test_free_fall_follows_parabola_until_contact(dim):
     """A voxel dropped from 5 mm: z(t) = z0 − g t²/2 until it touches the floor.
@@ -31,14 +44,7 @@ def test_free_fall_follows_parabola_until_contact(dim):
     Tolerance: semi-implicit Euler gives z_n = z0 − g dt² n(n+1)/2, i.e. an error of exactly
     g·dt·t/2 (≤ 12 µm here); we allow that bound plus 1 nm. Drag off (see the next test).
     """
-    compiled = compile_robot(Robot.from_body(np.ones((1,) * dim, dtype=np.int8)),
-                             physics=Physics().replace_scene(drag_ratio=0.0), elevation=5e-3)
-    sim = simulation_of(compiled)
-    dt = compiled.timestep
-    n = round(0.025 / dt)
-    com = np.empty((n, 3))
-    assert sim.run(n, com=com) == ""
-    t = np.arange(n) * dt
+    t, com, dt = dropped_voxel(Physics().replace_scene(drag_ratio=0.0), 0.025, dim)
     z0 = 5e-3 + L / 2
     exact = z0 - G * t**2 / 2
     falling = exact > L / 2
@@ -54,22 +60,14 @@ def test_free_fall_with_drag_follows_the_linear_drag_solution():
     """The engine's "slow" drag F = −2ζ sqrt(m E L)·v: z(t) = z0 − (g/k)(t − (1 − e^{−kt})/k)
     with k = 2ζ sqrt(E L/m) = 6.32 s⁻¹ for ζ = 0.001 (0.15 mm less fall than without drag
     after 17.5 ms, the engine's figure). Tolerance: the Euler bound of the previous test."""
-    physics = Physics().replace_scene(drag_ratio=0.001)
-    compiled = compile_robot(Robot.from_body(np.ones((1, 1, 1), dtype=np.int8)),
-                             physics=physics, elevation=5e-3)
-    sim = simulation_of(compiled)
-    dt = compiled.timestep
-    n = round(0.0175 / dt)
-    com = np.empty((n, 3))
-    assert sim.run(n, com=com) == ""
-    t = np.arange(n) * dt
+    t, com, dt = dropped_voxel(Physics().replace_scene(drag_ratio=0.001), 0.0175)
     k = 2 * 0.001 * math.sqrt(1e7 * L / M)
     z0 = 5e-3 + L / 2
     exact = z0 - G / k * (t - (1 - np.exp(-k * t)) / k)
     assert np.all(np.abs(com[:, 2] - exact) <= G * dt * t / 2 + 1e-9)
     # the drag's lead over a drag-free fall, against the same Euler steps without drag:
     # g (t²/2 − t/k + (1 − e^{−kt})/k²) = g k t³/6 (1 − kt/4 + …) = 0.15 mm at 17.5 ms
-    steps = n - 1
+    steps = len(t) - 1
     no_drag = z0 - G * dt**2 * steps * (steps + 1) / 2
     lead = G * (t[-1] ** 2 / 2 - t[-1] / k + (1 - math.exp(-k * t[-1])) / k**2)
     assert lead == pytest.approx(0.15e-3, rel=0.02)
