@@ -3,7 +3,7 @@
 For each robot of a fixed set (2D 5×5, 3D 112-voxel slab with and without hard voxels, the
 7×7×7 block, the paper's biped/tripod/multiped, the shipped evolved 3D walkers) and each
 model (`MODELS`: the default, where bonds, floor, self-collision and drag are one C loop; the
-same physics with MuJoCo doing floor contacts, self-collision and drag; everything in
+same with beam bonds (`Scene.bond_element` "beam"); the same physics with MuJoCo doing floor contacts, self-collision and drag; everything in
 MuJoCo, i.e. the exported MJCF): median over
 `--repeats` full `simulate` calls (compile included) of CPU and wall seconds, µs per step,
 steps, and the ratio to the paper engine's optimised cost (0.0125·N CPU-s per 0.55 s
@@ -41,6 +41,7 @@ VOXELYZE_UNOPTIMISED = 0.087  # the paper's own binary
 MUJOCO_CONTACTS = {"contact_shape": "point"}  # MuJoCo point floor, collision spheres, viscosity
 MODELS = {
     "default": {},
+    "beam": {"bond_element": "beam"},  # the default with one beam element per bond
     "mujoco-contacts": MUJOCO_CONTACTS,
     "tendon": {**MUJOCO_CONTACTS, "bond_backend": "tendon"},
 }

@@ -65,7 +65,13 @@ class _Bonds(ctypes.Structure):
         ("coll_reach", ctypes.c_double), ("grid", ctypes.c_void_p), ("surface", ctypes.c_void_p),
         ("coll_ref", ctypes.c_void_p), ("coll_pairs", ctypes.c_void_p),
         ("coll_count", ctypes.c_void_p),
+        ("nbeam", ctypes.c_int), ("beam_nmus", ctypes.c_int), ("beam_ends", ctypes.c_void_p),
+        ("beam_axis", ctypes.c_void_p), ("beam_k", ctypes.c_void_p),
+        ("beam_beta", ctypes.c_void_p), ("beam_plus", ctypes.c_void_p),
+        ("beam_minus", ctypes.c_void_p),
     ]
+
+SCRATCH_WIDTH = 28  # doubles per voxel in the C loop's scratch (bonds.c: SW)
 
 COLLISION_SKIN = 0.5  # Verlet-list skin of the native self-collision, in voxel lengths
 
@@ -166,7 +172,12 @@ def registered() -> int:
 
 
 class NativeBonds:
-    """The C-side description of one robot's bonds for one MjData; see `attach`."""
+    """The C-side description of one robot's bonds for one MjData; see `attach`.
+
+    `table` is a `BondTable` (the bonds' tendons) or a `BeamTable` (one beam per bond; then
+    the muscle drive comes from the table itself and `muscles` only says whether there are
+    muscles).
+    """
 
     def __init__(self, model: mujoco.MjModel, table, *, voxel_bodies: np.ndarray,
                  dim: int, muscles=None, scene=None, actuation_start: float = 0.0,
@@ -180,22 +191,40 @@ class NativeBonds:
                 joint = model.body_jntadr[body]
                 qadr[v] = model.jnt_qposadr[joint]
                 vadr[v] = model.jnt_dofadr[joint]
-        self.arrays = {
-            "qadr": qadr, "vadr": vadr, "pos0": pos0,
-            "ends": np.ascontiguousarray(table.ends, dtype=np.int32),
-            "off": np.ascontiguousarray(table.offsets, dtype=np.float64),
-            "k": np.ascontiguousarray(table.stiffness, dtype=np.float64),
-            "c": np.ascontiguousarray(table.damping, dtype=np.float64),
-            "rest": np.ascontiguousarray(table.rest, dtype=np.float64),
-            "scratch": np.zeros((n_vox, 24)),
-        }
-        struct = _Bonds(dim=dim, nvox=n_vox, nten=len(table.stiffness), nmus=0, contract=1,
-                        rate_drive=0, voxel_size=0.0, start=actuation_start, omega=0.0,
+        beams = hasattr(table, "beta")
+        self.arrays = {"qadr": qadr, "vadr": vadr, "pos0": pos0,
+                       "scratch": np.zeros((n_vox, SCRATCH_WIDTH))}
+        struct = _Bonds(dim=dim, nvox=n_vox, nten=0, nmus=0, contract=1, rate_drive=0,
+                        voxel_size=0.0, start=actuation_start, omega=0.0,
                         dt=float(model.opt.timestep))
         if scene is not None:
             struct.voxel_size = scene.voxel_size
             struct.contract = int(scene.waveform == "contract")
             struct.omega = 2.0 * np.pi * scene.frequency
+        if beams:
+            if scene is None:
+                raise ValueError("beam bonds need the scene (voxel size, actuation)")
+            length = scene.voxel_size
+            self.arrays.update(
+                beam_ends=np.ascontiguousarray(table.ends, dtype=np.int32),
+                beam_axis=np.ascontiguousarray(table.axis, dtype=np.int32),
+                beam_k=np.ascontiguousarray(table.stiffness, dtype=np.float64),
+                beam_beta=np.ascontiguousarray(table.beta, dtype=np.float64),
+                beam_plus=length * table.muscle_weights[:, 0],
+                beam_minus=length * table.muscle_weights[:, 1])
+            struct.nbeam = table.count
+            struct.beam_nmus = len(table.muscle_weights)
+            if struct.beam_nmus:
+                struct.waves = 1
+                struct.rate_drive = int(scene.damp_strain_rate)
+        else:
+            self.arrays.update(
+                ends=np.ascontiguousarray(table.ends, dtype=np.int32),
+                off=np.ascontiguousarray(table.offsets, dtype=np.float64),
+                k=np.ascontiguousarray(table.stiffness, dtype=np.float64),
+                c=np.ascontiguousarray(table.damping, dtype=np.float64),
+                rest=np.ascontiguousarray(table.rest, dtype=np.float64))
+            struct.nten = len(table.stiffness)
         contacts = engine_contacts
         if contacts is not None:
             if model.nuserdata < n_vox:
@@ -207,7 +236,8 @@ class NativeBonds:
                                mass=contacts.mass, half_p=contacts.half_plus,
                                half_m=contacts.half_minus)
             struct.floor = int(contacts.floor)
-            struct.waves = int(np.any(contacts.half_plus) or np.any(contacts.half_minus))
+            struct.waves = int(struct.waves or np.any(contacts.half_plus)
+                               or np.any(contacts.half_minus))
             struct.drag_lin, struct.drag_rot = contacts.drag_linear, contacts.drag_rotational
             colliders = int(np.count_nonzero(contacts.surface))
             if contacts.collision_radius > 0.0 and colliders > 1:
@@ -223,7 +253,7 @@ class NativeBonds:
                 struct.coll_radius = contacts.collision_radius
                 struct.coll_reach = 2.0 * contacts.collision_radius * largest
                 struct.coll_skin = COLLISION_SKIN * length
-        if muscles is not None and muscles.count:
+        if muscles is not None and muscles.count and not beams:
             length = muscles.voxel_size
             plus, minus = length * muscles.weights[:, 0], length * muscles.weights[:, 1]
             self.arrays.update(plus=plus, minus=minus, lat2=muscles.lateral ** 2)

@@ -122,6 +122,34 @@ class BondTable:
 
 
 @dataclass(frozen=True)
+class BeamTable:
+    """Every face bond of a robot as one beam element (`Scene.bond_element` "beam"), with the
+    linear stiffness of the bond's tendons (module docstring) and their damping ratio.
+
+    Bonds touching a muscle are rows ``0 .. len(muscle_weights)-1``; a bond's rest length is
+    L (1 + w₊ e₊ + w₋ e₋), as for its tendons.
+
+    Attributes:
+      ends: ``(n, 2)`` int, voxels (body order) i and j, j the neighbour of i along +axis.
+      axis: ``(n,)`` int, the bond's axis (0, 1, 2 = x, y, z) in the voxels' rest frames.
+      stiffness: ``(n, 4)`` float: axial E·L and transverse G·L in N/m, bending E·L³/12 and
+        torsion G·L³/3 in N·m/rad (E, G of the bond, as its tendons).
+      beta: ``(n,)`` s, damping per stiffness 2ζ sqrt(m/(E·L)) (C = beta·K, as the tendons).
+      muscle_weights: ``(m, 2)`` float, (w₊, w₋) of the driven bonds.
+    """
+
+    ends: np.ndarray
+    axis: np.ndarray
+    stiffness: np.ndarray
+    beta: np.ndarray
+    muscle_weights: np.ndarray
+
+    @property
+    def count(self) -> int:
+        return len(self.beta)
+
+
+@dataclass(frozen=True)
 class EngineContacts:
     """What the native loop computes besides the bonds with `Scene.contact_shape` "engine":
     the paper engine's floor, its self-collision and its drag (voxels in body order).
@@ -196,6 +224,7 @@ class CompiledRobot:
       muscles: the driven tendons, or None when the robot has no muscles.
       n_bonds: number of face bonds.
       bonds: every bond tendon as arrays (`BondTable`).
+      beams: every bond as one beam element (`BeamTable`).
       bond_backend: "tendon" or "native", the backend `simulation_of` uses (the scene's
         `bond_backend` resolved).
       native_model: with the native backend, the model that `simulation_of` steps: the same
@@ -215,6 +244,7 @@ class CompiledRobot:
     muscles: MuscleTendons | None
     n_bonds: int
     bonds: BondTable
+    beams: BeamTable
     bond_backend: str = "tendon"
     native_model: mujoco.MjModel | None = None
     engine_contacts: EngineContacts | None = None
@@ -240,6 +270,12 @@ class CompiledRobot:
         return self.native_model if self.native_model is not None else self.model
 
     @property
+    def native_bonds(self) -> BondTable | BeamTable:
+        """What the native loop computes the bonds from: `beams` or `bonds` (tendons), by
+        the scene's `bond_element`."""
+        return self.beams if self.physics.scene.bond_element == "beam" else self.bonds
+
+    @property
     def timestep(self) -> float:
         return float(self.simulation_model.opt.timestep)
 
@@ -253,7 +289,8 @@ class CompiledRobot:
 
 def resolve_bond_backend(scene) -> str:
     """"tendon" or "native" for a scene's `bond_backend` ("auto": native when the library
-    builds here and the integrator is Euler, else tendon).
+    builds here and the integrator is Euler, else tendon; always native for beam bonds and
+    the engine floor).
 
     Raises:
       NativeBuildError: "native" asked for and the library cannot be built.
@@ -262,8 +299,9 @@ def resolve_bond_backend(scene) -> str:
         return "tendon"
     from mjregen import bonds_native
 
-    if scene.bond_backend == "native" or (scene.contact_shape == "engine" and scene.floor):
-        bonds_native._load()  # the engine floor exists only in the native loop: no fallback
+    if (scene.bond_backend == "native" or scene.bond_element == "beam"
+            or (scene.contact_shape == "engine" and scene.floor)):
+        bonds_native._load()  # beams and the engine floor exist only natively: no fallback
         return "native"
     return "native" if scene.integrator == "euler" and bonds_native.available() else "tendon"
 
@@ -410,6 +448,7 @@ def compile_robot(
     sites: dict[tuple[int, tuple[float, ...]], str] = {}
     weights, lateral = [], []
     ends, offsets, stiffnesses, dampings, rests = [], [], [], [], []
+    beam_stiffness, beam_beta, beam_weights = [], [], []
     max_k_per_m = 0.0
     for i, j, axis in bonds:
         p_i, p_j = physics.materials[voxels[i][1]], physics.materials[voxels[j][1]]
@@ -424,6 +463,10 @@ def compile_robot(
         for voxel, props in ((i, p_i), (j, p_j)):
             if props.is_muscle:
                 bond_weights[0 if props.phase_sign > 0 else 1] += 0.5 * props.strain_amplitude
+        beam_stiffness.append((e_bond * L, g_bond * L, e_bond * L**3 / 12.0, g_bond * L**3 / 3.0))
+        beam_beta.append(damping_per_stiffness)
+        if is_muscle[i] or is_muscle[j]:
+            beam_weights.append(bond_weights)
         for offset_i, offset_j, stiffness in _bond_tendons(axis, dim, L, a, b, e_bond, g_bond):
             site_i, site_j = _mjcf(offset_i), _mjcf(offset_j)
             extent = float(np.linalg.norm(np.subtract(site_j, site_i)))
@@ -465,6 +508,11 @@ def compile_robot(
                       offsets=np.array(offsets, dtype=float).reshape(-1, 2, 3),
                       stiffness=np.array(stiffnesses, dtype=float),
                       damping=np.array(dampings, dtype=float), rest=np.array(rests, dtype=float))
+    beams = BeamTable(ends=np.array([(i, j) for i, j, _ in bonds], dtype=int).reshape(-1, 2),
+                      axis=np.array([axis for _, _, axis in bonds], dtype=int),
+                      stiffness=np.array(beam_stiffness, dtype=float).reshape(-1, 4),
+                      beta=np.array(beam_beta, dtype=float),
+                      muscle_weights=np.array(beam_weights, dtype=float).reshape(-1, 2))
     muscles = None
     if weights:
         muscles = MuscleTendons(weights=np.array(weights), lateral=np.array(lateral),
@@ -481,7 +529,7 @@ def compile_robot(
     return CompiledRobot(
         robot=robot, physics=physics, voxel_index=grid_index,
         body_ids=np.array([model.body(body.name).id for body in bodies]),
-        masses=masses, muscles=muscles, n_bonds=len(bonds), bonds=table,
+        masses=masses, muscles=muscles, n_bonds=len(bonds), bonds=table, beams=beams,
         bond_backend=backend, native_model=None if tendons else model,
         engine_contacts=_engine_contacts(physics, [m for _, m in voxels], masses, grid_index, surface,
                                          viscosity) if engine else None,

@@ -87,7 +87,7 @@ class RobotEnv(dm_env.Environment):
             # native bonds (and the engine floor): the strains go straight to the C loop
             self._model = compiled.native_model
             self._sim = Simulation(self._model, scene=scene, muscles=compiled.muscles,
-                                   actuation_start=0.0, bonds=compiled.bonds,
+                                   actuation_start=0.0, bonds=compiled.native_bonds,
                                    voxel_bodies=compiled.body_ids,
                                    engine_contacts=compiled.engine_contacts,
                                    external_strains=True)

@@ -235,7 +235,7 @@ def simulation_of(compiled: CompiledRobot) -> Simulation:
     settle, _ = scene.timing(compiled.robot.dim)
     if compiled.native_model is not None:
         return Simulation(compiled.native_model, scene=scene, muscles=compiled.muscles,
-                          actuation_start=settle, bonds=compiled.bonds,
+                          actuation_start=settle, bonds=compiled.native_bonds,
                           voxel_bodies=compiled.body_ids,
                           engine_contacts=compiled.engine_contacts)
     return Simulation(compiled.model, scene=scene, muscles=compiled.muscles,

@@ -99,7 +99,8 @@ def test_block_rests_on_floor_for_two_seconds(body):
 
 @pytest.mark.parametrize("dim", [2, 3])
 @pytest.mark.parametrize("material, E", [(Material.SOFT, 1e7), (Material.HARD, 5e7)])
-def test_hanging_column_stretches_as_E_predicts(dim, material, E):
+@pytest.mark.parametrize("element", ["tendons", "beam"])
+def test_hanging_column_stretches_as_E_predicts(dim, material, E, element):
     """A vertical column of n voxels hanging from its clamped top voxel, floor off.
 
     Bond k (counted from the bottom) carries the weight of the k voxels below it, and a bond
@@ -110,7 +111,7 @@ def test_hanging_column_stretches_as_E_predicts(dim, material, E):
     """
     n = 5
     robot = bar(n, material, dim=dim, axis=dim - 1)
-    physics = Physics().replace_scene(floor=False)
+    physics = Physics().replace_scene(floor=False, bond_element=element)
     compiled = compile_robot(robot, physics=physics, clamped=[(1,) * (dim - 1) + (n,)])
     sim = simulation_of(compiled)
     bottom = compiled.body_ids[np.argmin(compiled.voxel_index[:, -1])]
@@ -125,12 +126,13 @@ def test_hanging_column_stretches_as_E_predicts(dim, material, E):
 
 
 def cantilever_sag(n: int, material: int, *, dim: int, gravity: float, settle: float,
-                   bond_model: str = "euler_bernoulli") -> float:
+                   bond_model: str = "euler_bernoulli", bond_element: str = "tendons") -> float:
     """Tip sag (m) of a horizontal bar of n voxels whose first voxel is clamped, floor off.
 
     Averaged over the last 20 ms of `settle` s.
     """
-    physics = Physics().replace_scene(floor=False, gravity=gravity, bond_model=bond_model)
+    physics = Physics().replace_scene(floor=False, gravity=gravity, bond_model=bond_model,
+                                      bond_element=bond_element)
     compiled = compile_robot(bar(n, material, dim=dim, axis=0), physics=physics,
                              clamped=[(1,) * dim])
     sim = simulation_of(compiled)
@@ -166,9 +168,10 @@ CANTILEVERS = [(3, Material.HARD, 5e7, 1.0), (4, Material.HARD, 5e7, 1.0),
                (4, Material.SOFT, 1e7, 0.1), (5, Material.SOFT, 1e7, 0.1)]
 
 
+@pytest.mark.parametrize("element", ["tendons", "beam"])
 @pytest.mark.parametrize("n, material, E, scale", CANTILEVERS)
-def test_cantilever_sags_like_a_beam(n, material, E, scale):
-    """Tip sag vs beam theory, for both bond models.
+def test_cantilever_sags_like_a_beam(n, material, E, scale, element):
+    """Tip sag vs beam theory, for both bond models and both bond elements.
 
     "euler_bernoulli" (shear-rigid bonds, the default and the paper engine's beam element):
     measured sag / Euler–Bernoulli = 0.992–1.000 (3D, settled 0.3 s, or 0.8 s at g/10);
@@ -182,10 +185,11 @@ def test_cantilever_sags_like_a_beam(n, material, E, scale):
     gravity = G * scale
     settle = 0.3 if scale == 1 else 0.8
     bending, shear = euler_bernoulli(n, E, gravity)
-    rigid = cantilever_sag(n, material, dim=3, gravity=gravity, settle=settle)
+    rigid = cantilever_sag(n, material, dim=3, gravity=gravity, settle=settle,
+                           bond_element=element)
     assert 0.98 <= rigid / bending <= 1.01
     sag = cantilever_sag(n, material, dim=3, gravity=gravity, settle=settle,
-                         bond_model="timoshenko")
+                         bond_model="timoshenko", bond_element=element)
     assert 1.0 <= sag / bending <= 1.15
     assert 0.90 <= sag / (bending + shear) <= 1.02
 
@@ -206,9 +210,10 @@ def test_cantilever_2d_equals_3d_and_matches_the_paper_engine():
     assert shear == pytest.approx(0.2845e-3, rel=0.06)
 
 
+@pytest.mark.parametrize("element", ["tendons", "beam"])
 @pytest.mark.parametrize("bond_model, shear_modulus_ratio",
                          [("timoshenko", 1 / 2.7), ("euler_bernoulli", 1.0)])
-def test_two_voxel_cantilever_measures_shear_stiffness(bond_model, shear_modulus_ratio):
+def test_two_voxel_cantilever_measures_shear_stiffness(bond_model, shear_modulus_ratio, element):
     """One bond carrying the tip voxel's weight P: transverse stiffness in series with bending.
 
     For one segment with the bending rotation at its midpoint the tip sags
@@ -217,18 +222,19 @@ def test_two_voxel_cantilever_measures_shear_stiffness(bond_model, shear_modulus
     """
     gravity = G
     sag = cantilever_sag(2, Material.HARD, dim=3, gravity=gravity, settle=0.15,
-                         bond_model=bond_model)
+                         bond_model=bond_model, bond_element=element)
     P, E = M * gravity, 5e7
     predicted = P / (E * shear_modulus_ratio * L) + P * L**3 / (4 * E * L**4 / 12)
     assert sag == pytest.approx(predicted, rel=0.01)
 
 
-def muscle_pair(codes: tuple[int, int], *, waveform: str = "contract") -> tuple[np.ndarray,
-                                                                                np.ndarray]:
+def muscle_pair(codes: tuple[int, int], *, waveform: str = "contract",
+                bond_element: str = "tendons") -> tuple[np.ndarray, np.ndarray]:
     """(t, centre distance) of a free two-voxel bar, no floor or gravity, actuated from t=0;
     bond damping ratio 1 (overdamped: a clean first-order lag)."""
     physics = Physics().replace_scene(floor=False, gravity=0.0, settle_time=0.0,
-                                      waveform=waveform, bond_damping_ratio=1.0)
+                                      waveform=waveform, bond_damping_ratio=1.0,
+                                      bond_element=bond_element)
     compiled = compile_robot(Robot.from_body(np.array(codes, dtype=np.int8).reshape(2, 1, 1)),
                              physics=physics)
     sim = simulation_of(compiled)
@@ -240,7 +246,8 @@ def muscle_pair(codes: tuple[int, int], *, waveform: str = "contract") -> tuple[
     return np.arange(1, n + 1) * compiled.timestep, distance
 
 
-def test_muscle_contracts_with_commanded_amplitude_and_waveform():
+@pytest.mark.parametrize("element", ["tendons", "beam"])
+def test_muscle_contracts_with_commanded_amplitude_and_waveform(element):
     """Red–red bar at 40 Hz, contract-only: length L·(1 + 0.14·min(0, sin 2πft)).
 
     The bond's axial resonance (sqrt(2EL/m)/2π ≈ 710 Hz) is far above 40 Hz and the bond is
@@ -249,7 +256,7 @@ def test_muscle_contracts_with_commanded_amplitude_and_waveform():
     command at every step after the first cycle (2.3 % without the lag), peak contraction
     0.86 L within 0.5 %, never longer than L (+1e-9 m).
     """
-    t, distance = muscle_pair((3, 3))
+    t, distance = muscle_pair((3, 3), bond_element=element)
     lag = 2 * math.sqrt(M / (1e7 * L))
     command = L * (1 + 0.14 * np.minimum(0.0, np.sin(2 * math.pi * 40 * (t - lag))))
     late = t > 0.025

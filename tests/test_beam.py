@@ -1,0 +1,150 @@
+"""Beam bond elements (`Scene.bond_element` "beam"): one co-rotated linear beam per bond.
+
+Mechanics against theory (axial, cantilever, shear, muscle strain) run for both elements in
+test_physics_mechanics.py; here: the beam's linear stiffness and damping equal the tendon
+bundle's, it exerts nothing under rigid motion, conserves momentum and angular momentum
+exactly, keeps mirror symmetry, and is refused where it cannot run.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+
+from mjregen.compile import compile_robot
+from mjregen.grid import Robot
+from mjregen.physics import Physics, PhysicsParameterError, Scene
+from mjregen.simulate import simulate, simulation_of
+
+ROBOTS = Path(__file__).resolve().parents[1] / "assets" / "robots"
+
+
+def block_robot(dim: int) -> Robot:
+    """A small mixed block: soft, hard and both muscles, bonds along every axis."""
+    body = np.array([[[1, 2], [3, 1]], [[4, 1], [1, 2]], [[1, 3], [2, 1]]], dtype=np.int8)
+    return Robot.from_body(body if dim == 3 else body[:, 0, :])
+
+
+def passive_forces(robot: Robot, element: str, qpos: np.ndarray, qvel: np.ndarray,
+                   time: float = 0.0) -> tuple[np.ndarray, mujoco.MjData]:
+    """qfrc_passive of the bonds alone (no floor, gravity, drag or self-collision)."""
+    physics = Physics().replace_scene(bond_element=element, floor=False, gravity=0.0,
+                                      drag_ratio=0.0, self_collision=False, settle_time=0.0)
+    sim = simulation_of(compile_robot(robot, physics=physics))
+    sim.data.qpos[:], sim.data.qvel[:], sim.data.time = qpos, qvel, time
+    mujoco.mj_forward(sim.model, sim.data)
+    return sim.data.qfrc_passive.copy(), sim.data
+
+
+def native_model(robot: Robot) -> mujoco.MjModel:
+    return compile_robot(robot, physics=Physics()).native_model
+
+
+def split(model: mujoco.MjModel, linear: np.ndarray, angular: np.ndarray) -> np.ndarray:
+    """A dof vector from per-voxel linear and angular parts ``(n_voxels, 3 or 1)``: 3D free
+    joints (3 + 3), 2D (slide x, slide z, hinge y)."""
+    return np.concatenate([linear, angular], axis=1).ravel()
+
+
+def random_parts(model: mujoco.MjModel, rng: np.random.Generator) -> tuple[np.ndarray, ...]:
+    n_linear = 3 if model.nq > model.nv else 2
+    n = model.nv // (n_linear + (3 if n_linear == 3 else 1))
+    return (rng.normal(size=(n, n_linear)),
+            rng.normal(size=(n, model.nv // n - n_linear)))
+
+
+def displaced(model: mujoco.MjModel, dq: np.ndarray) -> np.ndarray:
+    qpos = model.qpos0.copy()
+    mujoco.mj_integratePos(model, qpos, dq, 1.0)
+    return qpos
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_linear_stiffness_and_damping_equal_the_tendon_bundles(dim):
+    """Small displacements (1e-8 m ~ 1e-5 strain), rotations (1e-5 rad), velocities and
+    angular velocities: the beam's force changes equal the tendons' to 1e-4 (the tendons'
+    values are rounded to the 6 digits MJCF keeps, which leaves them ~2e-5 N at rest)."""
+    robot = block_robot(dim)
+    model = native_model(robot)
+    zero = np.zeros(model.nv)
+    rest = {e: passive_forces(robot, e, model.qpos0, zero)[0] for e in ("tendons", "beam")}
+    assert np.abs(rest["beam"]).max() < 1e-12
+    linear, angular = random_parts(model, np.random.default_rng(dim))
+    cases = [(displaced(model, split(model, 1e-8 * linear, 0 * angular)), zero),
+             (displaced(model, split(model, 0 * linear, 1e-5 * angular)), zero),
+             (model.qpos0, split(model, 1e-3 * linear, 0 * angular)),
+             (model.qpos0, split(model, 0 * linear, angular))]
+    for qpos, qvel in cases:
+        change = {e: passive_forces(robot, e, qpos, qvel)[0] - rest[e] for e in rest}
+        error = np.linalg.norm(change["beam"] - change["tendons"])
+        assert error < 1e-4 * np.linalg.norm(change["tendons"])
+
+
+def world_wrench(data: mujoco.MjData, qfrc: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(total force, total torque about the origin) in world axes of 3D free voxels."""
+    force, torque = np.zeros(3), np.zeros(3)
+    for body in range(1, data.xpos.shape[0]):
+        f, tau_body = qfrc[6 * (body - 1): 6 * (body - 1) + 3], qfrc[6 * (body - 1) + 3: 6 * body]
+        tau = data.xmat[body].reshape(3, 3) @ tau_body
+        force += f
+        torque += tau + np.cross(data.xpos[body], f)
+    return force, torque
+
+
+def test_large_deformation_conserves_momentum_and_angular_momentum():
+    """Bends of ~0.3 rad, strains of ~20 %, fast random velocities: the bonds' forces sum
+    to zero and so do their moments about any point (to rounding), so a free robot can
+    neither push nor spin itself."""
+    robot = block_robot(3)
+    model = native_model(robot)
+    rng = np.random.default_rng(7)
+    linear, angular = random_parts(model, rng)
+    qpos = displaced(model, split(model, 2e-4 * linear, 0.3 * angular))
+    qvel = split(model, *random_parts(model, rng))
+    qfrc, data = passive_forces(robot, "beam", qpos, qvel, time=0.01)
+    force, torque = world_wrench(data, qfrc)
+    scale = np.abs(qfrc[:3]).max()
+    assert scale > 1e-3  # the bonds are loaded
+    assert np.abs(force).max() < 1e-12 * scale / 1e-3
+    assert np.abs(torque).max() < 1e-15 * scale / 1e-3
+
+
+def test_rigid_motion_exerts_no_force():
+    """A rotated (1.4 rad) and shifted robot spinning as a rigid body: no bond force."""
+    robot = block_robot(3)
+    model = native_model(robot)
+    rotation = np.zeros(4)
+    mujoco.mju_axisAngle2Quat(rotation, np.array([0.3, -0.8, 0.5]) / np.linalg.norm(
+        [0.3, -0.8, 0.5]), 1.4)
+    matrix = np.zeros(9)
+    mujoco.mju_quat2Mat(matrix, rotation)
+    matrix = matrix.reshape(3, 3)
+    qpos, qvel = model.qpos0.copy(), np.zeros(model.nv)
+    spin = np.array([3.0, -2.0, 5.0])  # rad/s, world
+    for v in range(model.nv // 6):
+        position = matrix @ model.qpos0[7 * v: 7 * v + 3] + [0.01, -0.02, 0.03]
+        qpos[7 * v: 7 * v + 3], qpos[7 * v + 3: 7 * v + 7] = position, rotation
+        qvel[6 * v: 6 * v + 3] = np.cross(spin, position)
+        qvel[6 * v + 3: 6 * v + 6] = matrix.T @ spin  # body frame
+    qfrc, _ = passive_forces(robot, "beam", qpos, qvel)
+    assert np.abs(qfrc).max() < 1e-11
+
+
+def test_mirror_symmetric_robot_stays_put_with_beams():
+    """The beam is computed in the bond's mid frame, symmetric in its two voxels, so the
+    mirror-symmetric in-phase robot does not move (1e-15 voxel lengths; tendons likewise)."""
+    result = simulate(Robot.load(ROBOTS / "symmetric_inphase_3d.npy"),
+                      physics=Physics().replace_scene(bond_element="beam"))
+    assert result.stable and result.distance < 1e-6
+
+
+def test_beams_need_the_native_backend_and_euler():
+    with pytest.raises(PhysicsParameterError, match="bond_element 'beam'"):
+        Scene(bond_element="beam", bond_backend="tendon", contact_shape="box")
+    with pytest.raises(PhysicsParameterError, match="bond_element 'beam'"):
+        Scene(bond_element="beam", integrator="rk4", contact_shape="box")
+    with pytest.raises(PhysicsParameterError, match="bond_element"):
+        Scene(bond_element="springs")
