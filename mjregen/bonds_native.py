@@ -66,7 +66,7 @@ class _Bonds(ctypes.Structure):
         ("coll_ref", ctypes.c_void_p), ("coll_pairs", ctypes.c_void_p),
         ("coll_count", ctypes.c_void_p),
         ("nbeam", ctypes.c_int), ("beam_nmus", ctypes.c_int), ("beam_ends", ctypes.c_void_p),
-        ("beam_axis", ctypes.c_void_p), ("beam_k", ctypes.c_void_p),
+        ("beam_axis", ctypes.c_void_p), ("beam_k", ctypes.c_void_p), ("beam_law", ctypes.c_void_p),
         ("beam_beta", ctypes.c_void_p), ("beam_plus", ctypes.c_void_p),
         ("beam_minus", ctypes.c_void_p),
     ]
@@ -209,6 +209,7 @@ class NativeBonds:
                 beam_ends=np.ascontiguousarray(table.ends, dtype=np.int32),
                 beam_axis=np.ascontiguousarray(table.axis, dtype=np.int32),
                 beam_k=np.ascontiguousarray(table.stiffness, dtype=np.float64),
+                beam_law=np.ascontiguousarray(table.axial_law, dtype=np.float64),
                 beam_beta=np.ascontiguousarray(table.beta, dtype=np.float64),
                 beam_plus=length * table.muscle_weights[:, 0],
                 beam_minus=length * table.muscle_weights[:, 1])

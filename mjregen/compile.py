@@ -124,7 +124,8 @@ class BondTable:
 @dataclass(frozen=True)
 class BeamTable:
     """Every face bond of a robot as one beam element (`Scene.bond_element` "beam"), with the
-    linear stiffness of the bond's tendons (module docstring) and their damping ratio.
+    linear stiffness of the bond's tendons (module docstring), their law along the bond's
+    axis, and their damping ratio.
 
     Bonds touching a muscle are rows ``0 .. len(muscle_weights)-1``; a bond's rest length is
     L (1 + w₊ e₊ + w₋ e₋), as for its tendons.
@@ -134,6 +135,11 @@ class BeamTable:
       axis: ``(n,)`` int, the bond's axis (0, 1, 2 = x, y, z) in the voxels' rest frames.
       stiffness: ``(n, 4)`` float: axial E·L and transverse G·L in N/m, bending E·L³/12 and
         torsion G·L³/3 in N·m/rad (E, G of the bond, as its tendons).
+      axial_law: ``(n, 3)`` float, the bond's tendons along its axis: total stiffness of
+        the straight tendons k₀ (N/m), of the diagonals k_d (N/m), and the diagonals' lateral
+        extent squared D² (m²); the axial force at centre distance l is
+        k₀ (l − l₀) + k_d (s − s₀) l / s, s = sqrt(l² + D²), s₀ = sqrt(l₀² + D²), whose slope
+        at l₀ = L is stiffness[:, 0]. Stiffening in tension, softening in compression.
       beta: ``(n,)`` s, damping per stiffness 2ζ sqrt(m/(E·L)) (C = beta·K, as the tendons).
       muscle_weights: ``(m, 2)`` float, (w₊, w₋) of the driven bonds.
     """
@@ -141,6 +147,7 @@ class BeamTable:
     ends: np.ndarray
     axis: np.ndarray
     stiffness: np.ndarray
+    axial_law: np.ndarray
     beta: np.ndarray
     muscle_weights: np.ndarray
 
@@ -448,7 +455,7 @@ def compile_robot(
     sites: dict[tuple[int, tuple[float, ...]], str] = {}
     weights, lateral = [], []
     ends, offsets, stiffnesses, dampings, rests = [], [], [], [], []
-    beam_stiffness, beam_beta, beam_weights = [], [], []
+    beam_stiffness, beam_law, beam_beta, beam_weights = [], [], [], []
     max_k_per_m = 0.0
     for i, j, axis in bonds:
         p_i, p_j = physics.materials[voxels[i][1]], physics.materials[voxels[j][1]]
@@ -467,7 +474,11 @@ def compile_robot(
         beam_beta.append(damping_per_stiffness)
         if is_muscle[i] or is_muscle[j]:
             beam_weights.append(bond_weights)
+        law = [0.0, 0.0, 0.0]
         for offset_i, offset_j, stiffness in _bond_tendons(axis, dim, L, a, b, e_bond, g_bond):
+            lateral2 = float(np.sum(np.subtract(offset_j, offset_i) ** 2))
+            law[0 if lateral2 == 0.0 else 1] += stiffness
+            law[2] = max(law[2], lateral2)  # the same for all diagonals of a bond
             site_i, site_j = _mjcf(offset_i), _mjcf(offset_j)
             extent = float(np.linalg.norm(np.subtract(site_j, site_i)))
             k_tendon = _mjcf(stiffness)
@@ -488,6 +499,7 @@ def compile_robot(
             if is_muscle[i] or is_muscle[j]:
                 weights.append(bond_weights)
                 lateral.append(extent)
+        beam_law.append(law)
     if not bonds:
         max_k_per_m = max(physics.materials[m].youngs_modulus * L / physics.voxel_mass(m)
                           for m in present)
@@ -511,6 +523,7 @@ def compile_robot(
     beams = BeamTable(ends=np.array([(i, j) for i, j, _ in bonds], dtype=int).reshape(-1, 2),
                       axis=np.array([axis for _, _, axis in bonds], dtype=int),
                       stiffness=np.array(beam_stiffness, dtype=float).reshape(-1, 4),
+                      axial_law=np.array(beam_law, dtype=float).reshape(-1, 3),
                       beta=np.array(beam_beta, dtype=float),
                       muscle_weights=np.array(beam_weights, dtype=float).reshape(-1, 2))
     muscles = None

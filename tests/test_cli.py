@@ -108,6 +108,20 @@ def test_walk_with_a_physics_preset(capsys, name):
     assert report["distance"] == expected.distance and report["steps"] == expected.steps
 
 
+def test_walk_with_beam_bonds(capsys):
+    from mjregen.physics import Physics
+    from mjregen.simulate import simulate
+
+    assert main(["walk", WALKER, "--bonds", "beam", "--settle", "0.01", "--duration", "0.03",
+                 "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    beam = Physics().replace_scene(settle_time=0.01, bond_element="beam")
+    expected = simulate(Robot.load(WALKER), physics=beam, duration=0.03)
+    tendons = simulate(Robot.load(WALKER), physics=Physics().replace_scene(settle_time=0.01),
+                       duration=0.03)
+    assert report["distance"] == expected.distance != tendons.distance
+
+
 def test_export_writes_mjcf_that_plain_mujoco_loads(tmp_path, capsys):
     import mujoco
 

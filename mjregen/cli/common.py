@@ -53,6 +53,10 @@ def add_physics_choice(parser: argparse.ArgumentParser) -> None:
                         help="'default' (the default) = 'paper': the paper engine's physics "
                              "(docs/fidelity.md); 'sphere' or 'legacy': earlier MuJoCo-contact "
                              "models that need no C compiler (mjregen.physics)")
+    parser.add_argument("--bonds", choices=("tendons", "beam"),
+                        help="bond element: 'tendons' (the default; closest to the paper "
+                             "engine's distances) or 'beam' (one beam element per bond, "
+                             "~1.8x faster per step; docs/performance.md)")
     parser.set_defaults(settle=None)
 
 
@@ -71,4 +75,6 @@ def physics_from_args(args: argparse.Namespace):
 
     presets = {"paper": paper_physics, "sphere": sphere_physics, "legacy": legacy_physics}
     physics = presets.get(args.physics, Physics)()
+    if getattr(args, "bonds", None):
+        physics = physics.replace_scene(bond_element=args.bonds)
     return physics if args.settle is None else physics.replace_scene(settle_time=args.settle)

@@ -77,6 +77,8 @@ typedef struct {
   const int* beam_ends; /* (nbeam, 2) voxels i, j (j is i's neighbour along +axis) */
   const int* beam_axis; /* (nbeam) the bond's axis in the voxels' rest frame (0, 1, 2) */
   const double* beam_k; /* (nbeam, 4) axial N/m, transverse N/m, bending N m, torsion N m */
+  const double* beam_law; /* (nbeam, 3) axial law of the bond's tendons: straight k N/m,
+                             diagonal k N/m, diagonals' lateral extent^2 m^2 */
   const double* beam_beta; /* (nbeam) s, damping per stiffness (C = beta K) */
   const double* beam_plus;  /* (beam_nmus) m, L w+: rest length L + plus e+ + minus e- */
   const double* beam_minus; /* (beam_nmus) m, L w- */
@@ -524,14 +526,18 @@ static void beam_bonds(const mjrBonds* b, double ep, double em, double rp, doubl
       rest += b->beam_plus[n] * ep + b->beam_minus[n] * em;
       if (b->rate_drive) dd[axis] -= b->beam_plus[n] * rp + b->beam_minus[n] * rm;
     }
-    d[axis] -= rest;
     double F[3], B[3], Ti[3], Tj[3], dF[3];
     for (int a = 0; a < 3; a++) {
-      double u = d[a] + beta * dd[a], rot = gain * rv[a] + beta * dD[a];
-      F[a] = -(a == axis ? k[0] : k[1]) * u;
+      double rot = gain * rv[a] + beta * dD[a];
+      F[a] = a == axis ? 0.0 : -k[1] * (d[a] + beta * dd[a]);
       B[a] = (a == axis ? k[3] : k[2]) * rot;
     }
-    d[axis] += rest;
+    /* axial: the tendons' own law along the axis, l = d[axis]; damping linear */
+    const double* law = b->beam_law + 3 * n;
+    double l = d[axis], lat2 = law[2];
+    double s_now = sqrt(l * l + lat2), s_rest = sqrt(rest * rest + lat2);
+    F[axis] = -law[0] * (l - rest) - law[1] * (s_now - s_rest) * l / s_now
+              - beta * k[0] * dd[axis];
     cross(d, F, dF);
     for (int a = 0; a < 3; a++) {
       Ti[a] = -0.5 * dF[a] + B[a];
