@@ -196,14 +196,12 @@ class Scene:
         along each driven tendon (one MuJoCo actuator per driven tendon, its control
         written every step by `Simulation`). No effect on robots without muscles.
       bond_element: how a bond's stiffness is built (the same linear stiffness and damping
-        either way, to 1e-5): "tendons" (the default: 8 spatial tendons per 3D bond, 4 in
-        2D, geometrically exact, stiffening in tension and bending and softening in
-        compression; the model the exported MJCF always contains) or "beam" (one
-        co-rotated linear beam element per bond, Hookean in the bond's mid frame like the
-        paper engine's bond; ~1.8x cheaper per step on 3D robots; native backend only).
-        The default stays "tendons" because it reproduces the paper engine's distances
-        better (docs/performance.md: the multiped walks 0.33 of the engine's distance with
-        beams, 1.10 with tendons).
+        either way, to 1e-5): "beam" (the default: one co-rotated beam element per bond,
+        linear in shear, bending and torsion in the bond's mid frame like the paper
+        engine's beam, along its axis the tendons' law; about half the CPU time per 3D
+        evaluation; native backend only; docs/fidelity.md, docs/performance.md) or
+        "tendons" (8 spatial tendons per 3D bond, 4 in 2D, geometrically exact; the
+        default before issue #8, and the model the exported MJCF always contains).
       bond_backend: how `simulate` computes the bonds' forces (the model is the same):
         "tendon" (MuJoCo spatial tendons, the exported MJCF), "native" (all bond tendons in
         one compiled C loop in MuJoCo's passive-force callback, `mjregen.bonds_native`; the
@@ -235,7 +233,7 @@ class Scene:
     damp_strain_rate: bool = False
     collision_radius: float = 0.625
     bond_backend: str = "auto"
-    bond_element: str = "tendons"
+    bond_element: str = "beam"
 
     def __post_init__(self) -> None:
         _check("voxel_size", self.voxel_size, low=0.0)
@@ -337,7 +335,11 @@ class Physics:
         try:
             materials = {Material[name.upper()]: MaterialProperties(**props)
                          for name, props in values["materials"].items()}
-            return cls(materials=materials, scene=Scene(**values["scene"]))
+            scene = dict(values["scene"])
+            # descriptions written before beam bonds existed (runs, asset manifests) meant
+            # the tendon bonds, then the only element
+            scene.setdefault("bond_element", "tendons")
+            return cls(materials=materials, scene=Scene(**scene))
         except (KeyError, TypeError) as error:
             raise PhysicsParameterError(f"invalid physics description: {error}") from None
 
@@ -389,7 +391,8 @@ def paper_physics() -> Physics:
       current half size, static friction 1.0 with a stick state, kinetic friction 0.5;
     - bonds: shear-rigid beams ("euler_bernoulli"), the engine's beam element (transverse
       stiffness E·L = 12EI/L³); with Timoshenko bonds the multiped's legs sag and it walks
-      a fifth as far;
+      a fifth as far; one beam element per bond ("beam", issue #8: as close to the engine
+      as the tendon bundle, half the CPU time);
     - self-collision on, spheres of radius 0.625 L (the engine's collision envelope);
     - bond damping ratio 0.4: the engine damps half the relative velocity of a bond
       (ζ = 1 there ≈ 0.5 here); 0.4 reproduces the 3×3×3 block's rebound (restitution 0.35);
@@ -400,23 +403,24 @@ def paper_physics() -> Physics:
     return Physics(materials=materials, scene=Scene(
         contact_shape="engine", contact_stiffness=2.0, contact_damping=0.8,
         bond_model="euler_bernoulli", self_collision=True, collision_radius=0.625,
-        bond_damping_ratio=0.4, drag_ratio=0.001))
+        bond_damping_ratio=0.4, drag_ratio=0.001, bond_element="beam"))
 
 
 def sphere_physics() -> Physics:
     """The first `paper_physics` (before the engine floor): MuJoCo sphere contacts (one per
     voxel, spring 2·E·L, damping 1.2 because MuJoCo's contact cannot pull), friction 1.0,
-    Timoshenko bonds, ζ 0.4, drag 0.001, no self-collision; works with the tendon backend."""
+    Timoshenko tendon bonds, ζ 0.4, drag 0.001, no self-collision; works with the tendon
+    backend."""
     materials = {m: replace(p, friction=1.0) for m, p in paper_materials().items()}
     return Physics(materials=materials, scene=Scene(
         contact_shape="sphere", contact_stiffness=2.0, contact_damping=1.2,
-        bond_damping_ratio=0.4, drag_ratio=0.001))
+        bond_damping_ratio=0.4, drag_ratio=0.001, bond_element="tendons"))
 
 
 def legacy_physics() -> Physics:
     """The physics before the fidelity study (issue #10): box contacts solref (0.3 ms, 1),
-    friction 0.5, bond damping ratio 1, no drag, no self-collision."""
+    friction 0.5, bond damping ratio 1, no drag, no self-collision, tendon bonds."""
     materials = {m: replace(p, friction=0.5) for m, p in paper_materials().items()}
     return Physics(materials=materials, scene=Scene(
         contact_shape="box", contact_stiffness=None, bond_damping_ratio=1.0, drag_ratio=0.0,
-        self_collision=False))
+        self_collision=False, bond_element="tendons"))

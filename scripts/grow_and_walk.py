@@ -2,8 +2,9 @@
 """Grow a soft voxel robot with a neural cellular automaton, compile it to MuJoCo, walk it.
 
 With no arguments it grows the robot of the NCA shipped in assets/nca/ (see its README),
-prints every growth step, simulates the walk (the paper's settle and measured time) and
-writes into the output folder (default ./grow_and_walk_out):
+prints every growth step, simulates the walk (the paper's settle and measured time; a
+shipped NCA walks with the physics it was evolved in, recorded in assets/nca/manifest.json)
+and writes into the output folder (default ./grow_and_walk_out):
 
   robot.npy     the grown robot (mjregen robot file)
   robot.xml     its MuJoCo model (loads in plain MuJoCo)
@@ -67,15 +68,20 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _load_source(args: argparse.Namespace) -> tuple[Robot, np.ndarray | None, str]:
-    """(robot, growth states ``(T, *grid)`` or None, description of the source)."""
+def _load_source(args: argparse.Namespace) -> tuple[Robot, np.ndarray | None, str, object]:
+    """(robot, growth states ``(T, *grid)`` or None, description of the source, `Physics`):
+    the physics is the default, or for a shipped NCA the one it was evolved and recorded
+    with (its entry in the folder's manifest.json)."""
+    from mjregen.physics import Physics
+
     if args.robot is not None:
         robot = Robot.load(args.robot)
         _check_dim(args.dim, robot.dim, args.robot)
-        return robot, None, f"robot file {args.robot}"
+        return robot, None, f"robot file {args.robot}", Physics()
     from mjregen.checkpoint import load_nca  # torch: only when growing
     from mjregen.nca import NCA, NCAConfig
 
+    physics = Physics()
     if args.seed is not None:
         dim = args.dim or 3
         nca = NCA.random(NCAConfig(dim=dim), seed=args.seed)
@@ -85,8 +91,24 @@ def _load_source(args: argparse.Namespace) -> tuple[Robot, np.ndarray | None, st
         nca, _ = load_nca(path)
         _check_dim(args.dim, nca.config.dim, path)
         source = f"NCA checkpoint {path}"
+        recorded = _recorded_physics(path)
+        if recorded is not None:
+            physics = recorded
+            source += f" (walked with its recorded physics: {physics.scene.bond_element} bonds)"
     growth = nca.grow()
-    return growth.robot(), np.asarray(growth.states[0]), source
+    return growth.robot(), np.asarray(growth.states[0]), source, physics
+
+
+def _recorded_physics(path: Path):
+    """The physics a shipped NCA was evaluated with (assets manifest), or None."""
+    from mjregen.physics import Physics
+
+    manifest = path.with_name("manifest.json")
+    if not manifest.is_file():
+        return None
+    entry = json.loads(manifest.read_text()).get(path.name, {})
+    recorded = entry.get("evaluation", {}).get("physics")
+    return Physics.from_dict(recorded) if recorded is not None else None
 
 
 def _check_dim(wanted: int | None, actual: int, path: Path) -> None:
@@ -115,7 +137,7 @@ def run(args: argparse.Namespace) -> dict:
         view = View(width=args.width, height=args.height)  # bad sizes fail before any work
         if args.fps < 1 or not args.slowdown > 0:
             raise MjregenError("--fps must be >= 1 and --slowdown > 0")
-    robot, states, source = _load_source(args)
+    robot, states, source, physics = _load_source(args)
     if view is not None:  # a missing renderer fails before the simulation
         print(f"rendering with MUJOCO_GL={select_gl_backend()}")
 
@@ -138,16 +160,17 @@ def run(args: argparse.Namespace) -> dict:
     if robot.is_empty:
         raise MjregenError(f"{source} grew an empty robot: nothing to walk (robot.npy and "
                            "growth.png are written)")
-    compiled = compile_robot(robot)
+    compiled = compile_robot(robot, physics=physics)
     with atomic_open(out / "robot.xml", "w", overwrite=args.force) as handle:
         handle.write(compiled.to_xml())
-    result = simulate(robot, duration=args.duration)
+    result = simulate(robot, physics=physics, duration=args.duration)
     print(f"walked: distance {result.distance:.4f} voxel lengths, fitness {result.fitness:.4f}, "
           f"{result.n_voxels} voxels" + ("" if result.stable else f", UNSTABLE ({result.reason})"))
     summary = {"source": source, "voxels": result.n_voxels, "distance": result.distance,
                "fitness": result.fitness, "stable": result.stable, "reason": result.reason,
                "sim_time": result.sim_time, "timestep": result.timestep,
-               "duration": args.duration, "files": ["robot.npy", "robot.xml"]}
+               "duration": args.duration, "bond_element": physics.scene.bond_element,
+               "files": ["robot.npy", "robot.xml"]}
     if states is not None:
         summary["files"].append("growth.png")
     if view is not None:

@@ -196,10 +196,12 @@ class Report:
             same = (settle_s, walk_s) == (paper_settle, paper_walk)
             timing = (f"settle {fmt(settle_s)} s + walk {fmt(walk_s)} s"
                       + (" (the paper's)" if same else ""))
-            if physics == Physics().replace_scene(settle_time=settle).to_dict():
+            stored = Physics.from_dict(physics) if isinstance(physics, dict) and physics else None
+            if stored == Physics().replace_scene(settle_time=settle):
                 default = "today's default physics (= `paper_physics()`)"
-            elif physics == paper_physics().replace_scene(settle_time=settle).to_dict():
-                default = "`paper_physics()`"
+            elif stored == paper_physics().replace_scene(settle_time=settle,
+                                                         bond_element="tendons"):
+                default = "`paper_physics()` with tendon bonds (the default before beams, #8)"
             else:
                 default = "physics differ from today's defaults (see the run's config.json)"
             self.add(f"| {name} | {paper.population} × {paper.generations} × {condition.paper_runs} | "

@@ -108,7 +108,7 @@ def test_walk_with_a_physics_preset(capsys, name):
     assert report["distance"] == expected.distance and report["steps"] == expected.steps
 
 
-def test_walk_with_beam_bonds(capsys):
+def test_walk_with_tendon_or_beam_bonds(capsys):
     from mjregen.physics import Physics
     from mjregen.simulate import simulate
 
@@ -117,9 +117,12 @@ def test_walk_with_beam_bonds(capsys):
     report = json.loads(capsys.readouterr().out)
     beam = Physics().replace_scene(settle_time=0.01, bond_element="beam")
     expected = simulate(Robot.load(WALKER), physics=beam, duration=0.03)
-    tendons = simulate(Robot.load(WALKER), physics=Physics().replace_scene(settle_time=0.01),
-                       duration=0.03)
+    tendons = simulate(Robot.load(WALKER), physics=Physics().replace_scene(
+        settle_time=0.01, bond_element="tendons"), duration=0.03)
     assert report["distance"] == expected.distance != tendons.distance
+    assert main(["walk", WALKER, "--bonds", "tendons", "--settle", "0.01", "--duration", "0.03",
+                 "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["distance"] == tendons.distance
 
 
 def test_export_writes_mjcf_that_plain_mujoco_loads(tmp_path, capsys):

@@ -39,8 +39,8 @@ def test_evolve_writes_a_run_and_resume_with_no_flags(tmp_path, capsys):
     assert "--pop 7" in capsys.readouterr().err
     assert main(["evolve", "--out", str(out), "--resume", "--physics", "sphere", "--quiet"]) == 1
     assert "--physics sphere" in capsys.readouterr().err
-    assert main(["evolve", "--out", str(out), "--resume", "--bonds", "beam", "--quiet"]) == 1
-    assert "--bonds beam (run has tendons)" in capsys.readouterr().err
+    assert main(["evolve", "--out", str(out), "--resume", "--bonds", "tendons", "--quiet"]) == 1
+    assert "--bonds tendons (run has beam)" in capsys.readouterr().err
     assert main(["evolve", *TINY, "--gens", "2", "--out", str(out)]) == 1
     assert "not empty" in capsys.readouterr().err
 

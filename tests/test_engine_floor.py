@@ -119,10 +119,11 @@ def test_contracting_muscle_voxel_sinks_with_its_half_size():
 
 
 def test_engine_floor_needs_the_native_backend():
-    with pytest.raises(PhysicsParameterError, match="native"):
-        Physics().replace_scene(bond_backend="tendon")
+    tendons = Physics().replace_scene(bond_element="tendons")
+    with pytest.raises(PhysicsParameterError, match="contact_shape 'engine'"):
+        tendons.replace_scene(bond_backend="tendon")
     # without a floor there is nothing to compute natively: the tendon backend is fine
-    assert Physics().replace_scene(bond_backend="tendon", floor=False).scene.floor is False
+    assert tendons.replace_scene(bond_backend="tendon", floor=False).scene.floor is False
 
 
 def colliding_pair(speed: float):

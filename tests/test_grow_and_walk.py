@@ -14,6 +14,7 @@ import pytest
 from mjregen.checkpoint import load_nca
 from mjregen.compile import compile_robot
 from mjregen.grid import Material, Robot
+from mjregen.physics import Physics
 from mjregen.simulate import simulate
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -110,7 +111,14 @@ def test_default_is_the_shipped_nca(tmp_path):
     assert done.returncode == 0, done.stderr
     assert f"NCA checkpoint {SHIPPED}" in done.stdout
     nca, _ = load_nca(SHIPPED)
-    assert Robot.load(tmp_path / "robot.npy") == nca.grow().robot()
+    robot = nca.grow().robot()
+    assert Robot.load(tmp_path / "robot.npy") == robot
+    # it walks with the physics it was evolved in (the manifest's), not today's default
+    recorded = json.loads(SHIPPED.with_name("manifest.json").read_text())[SHIPPED.name]
+    physics = Physics.from_dict(recorded["evaluation"]["physics"])
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["bond_element"] == physics.scene.bond_element == "tendons"
+    assert summary["distance"] == simulate(robot, physics=physics, duration=0.01).distance
 
 
 @pytest.mark.parametrize("args, message", [

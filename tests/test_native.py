@@ -23,7 +23,8 @@ SLAB[:, :, 0] = np.where(np.arange(4)[:, None] % 2 == 0, 3, 4)
 SLAB[1, 1, 1] = 2
 # the tendon model (the exported MJCF) has MuJoCo contacts: compare backends on point contacts
 # (the default "engine" floor exists only in the native loop; tests/test_engine_floor.py)
-CONTACTS = Physics().replace_scene(contact_shape="point")
+TENDONS = Physics().replace_scene(bond_element="tendons")  # what both backends compute
+CONTACTS = TENDONS.replace_scene(contact_shape="point")
 
 
 def _both(robot, physics, steps, clamped=(), elevation=0.0):
@@ -59,7 +60,7 @@ def test_walking_robot_same_motion(grid, physics):
 def test_clamped_hard_cantilever_same_motion(dim):
     shape = (5, 1, 1) if dim == 3 else (5, 1)
     robot = Robot.from_body(np.full(shape, 2, dtype=np.int8))
-    physics = Physics().replace_scene(floor=False)
+    physics = TENDONS.replace_scene(floor=False)
     root = next(iter(robot.voxels()))[0]
     out = _both(robot, physics, 3000, clamped=[root], elevation=0.01)
     (q_t, v_t), (q_n, v_n) = out["tendon"], out["native"]
@@ -74,7 +75,7 @@ def test_simulate_results_agree_and_export_is_the_tendon_model():
                            duration=0.03) for b in ("tendon", "native")}
     assert results["native"].steps == results["tendon"].steps
     assert results["native"].distance == pytest.approx(results["tendon"].distance, rel=1e-6)
-    compiled = compile_robot(robot, physics=Physics().replace_scene(bond_backend="native"))
+    compiled = compile_robot(robot, physics=TENDONS.replace_scene(bond_backend="native"))
     assert compiled.native_model.ntendon == 0 and compiled.native_model.nsite == 0
     assert compiled.model.ntendon == compiled.bonds.count == 8 * compiled.n_bonds
     plain = mujoco.MjModel.from_xml_string(compiled.to_xml())
@@ -86,7 +87,7 @@ def test_state_is_per_data_and_released():
     gc.collect()
     before = bonds_native.registered()
     compiled = compile_robot(Robot.from_body(SLAB),
-                             physics=Physics().replace_scene(bond_backend="native"))
+                             physics=TENDONS.replace_scene(bond_backend="native"))
     sims = [simulation_of(compiled) for _ in range(2)]
     assert bonds_native.registered() == before + 2
     # an unregistered MjData of the same model feels no bonds: it falls apart differently
@@ -103,7 +104,7 @@ def test_state_is_per_data_and_released():
 
 def test_threads_give_the_serial_result():
     compiled = compile_robot(Robot.from_body(SLAB),
-                             physics=Physics().replace_scene(bond_backend="native"))
+                             physics=TENDONS.replace_scene(bond_backend="native"))
     serial = simulation_of(compiled)
     serial.run(800)
     sims = [simulation_of(compiled) for _ in range(2)]
@@ -118,7 +119,7 @@ def test_threads_give_the_serial_result():
 
 def test_native_needs_euler():
     with pytest.raises(PhysicsParameterError, match="euler"):
-        Physics().replace_scene(bond_backend="native", integrator="rk4")
+        TENDONS.replace_scene(bond_backend="native", integrator="rk4")
     compiled = compile_robot(Robot.from_body(SLAB), physics=CONTACTS.replace_scene(
         integrator="rk4", bond_backend="auto"))
     assert compiled.bond_backend == "tendon"  # auto falls back

@@ -291,7 +291,7 @@ def _free_muscle_bar(damp_strain_rate: bool) -> tuple[float, int]:
     robot = Robot.from_body(np.array([3, 3], dtype=np.int8).reshape(2, 1, 1))
     physics = Physics().replace_scene(gravity=0.0, floor=False, settle_time=0.0,
                                       damp_strain_rate=damp_strain_rate, bond_damping_ratio=1.0,
-                                      bond_backend="tendon")
+                                      bond_backend="tendon", bond_element="tendons")
     compiled = compile_robot(robot, physics=physics)
     sim = simulation_of(compiled)
     dt = compiled.timestep

@@ -97,9 +97,15 @@ def test_physics_pickles_and_round_trips_through_json():
     import pickle
 
     physics = Physics().replace_scene(settle_time=0.2, integrator="rk4",
-                                      contact_shape="sphere", bond_backend="tendon")
+                                      contact_shape="sphere", bond_backend="tendon",
+                                      bond_element="tendons")
     assert pickle.loads(pickle.dumps(physics)) == physics  # sent to worker processes
     assert Physics.from_dict(json.loads(json.dumps(physics.to_dict()))) == physics
+    assert Physics.from_dict(Physics().to_dict()) == Physics()  # beams survive the trip
+    # descriptions written before beam bonds existed (runs, manifests) meant tendon bonds
+    old = Physics().to_dict()
+    del old["scene"]["bond_element"]
+    assert Physics.from_dict(old).scene.bond_element == "tendons"
     broken = physics.to_dict()
     broken["materials"]["hard"]["youngs_modulus"] = -1.0
     with pytest.raises(PhysicsParameterError, match="youngs_modulus"):

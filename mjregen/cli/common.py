@@ -54,9 +54,9 @@ def add_physics_choice(parser: argparse.ArgumentParser) -> None:
                              "(docs/fidelity.md); 'sphere' or 'legacy': earlier MuJoCo-contact "
                              "models that need no C compiler (mjregen.physics)")
     parser.add_argument("--bonds", choices=("tendons", "beam"),
-                        help="bond element: 'tendons' (the default; closest to the paper "
-                             "engine's distances) or 'beam' (one beam element per bond, "
-                             "~1.8x faster per step; docs/performance.md)")
+                        help="bond element: 'beam' (the default: one beam element per "
+                             "bond) or 'tendons' (8 tendons per bond, the model before issue "
+                             "#8, ~2x the CPU time; docs/performance.md)")
     parser.set_defaults(settle=None)
 
 
