@@ -1,7 +1,8 @@
 """Evaluation throughput of the 3D locomotion pipeline on each backend, and a real short
 evolution.
 
-    python benchmarks/evolution.py backends [--pop 20] [--seed 0] [--json out.json]
+    python benchmarks/evolution.py backends [--pop 20] [--seed 0] [--bonds beam|tendons]
+        [--backends serial process thread] [--json out.json]
     python benchmarks/evolution.py short-run [--pop 20] [--gens 5] [--out runs/short3d]
 
 `backends` grows one 3D population (the paper's initial genes, so most robots are large
@@ -24,14 +25,17 @@ from mjregen.evolve import PRESETS
 from mjregen.locomotion import LocomotionTask
 from mjregen.nca import NCAConfig, random_genomes
 from mjregen.parallel import make_backend
+from mjregen.physics import Physics
 from mjregen.runs import run_evolution
 
 
 def backends(args: argparse.Namespace) -> dict:
-    task = LocomotionTask(nca=NCAConfig(dim=3, kind="ff"))
+    physics = Physics().replace_scene(bond_element=args.bonds)
+    task = LocomotionTask(nca=NCAConfig(dim=3, kind="ff"), physics=physics)
     genomes = random_genomes(task.nca, args.pop, seed=args.seed)
     rows, reference = [], None
-    for name, workers in (("serial", 1), ("process", 2), ("thread", 2)):
+    for name in args.backends:
+        workers = 1 if name == "serial" else 2
         with make_backend(name, workers=workers) as backend:
             wall, cpu = time.perf_counter(), time.process_time()
             result = task.evaluate(genomes, backend)
@@ -42,20 +46,21 @@ def backends(args: argparse.Namespace) -> dict:
             "backend": name, "workers": workers, "wall_s": wall,
             "driver_cpu_s": cpu, "simulation_cpu_s": result.sim_cpu_time,
             "evals_per_s": args.pop / wall, "distinct_robots": result.n_distinct,
-            "same_fitness_as_serial": bool(np.array_equal(result.fitness, reference)),
+            "same_fitness_as_first_backend": bool(np.array_equal(result.fitness, reference)),
         })
-    serial = rows[0]["wall_s"]
+    serial = next((row["wall_s"] for row in rows if row["backend"] == "serial"), None)
     for row in rows:
-        row["parallel_efficiency"] = serial / row["wall_s"] / row["workers"]
+        row["parallel_efficiency"] = (serial / row["wall_s"] / row["workers"]
+                                      if serial is not None else float("nan"))
         row["projected_paper_run_h"] = 100 * 300 / row["evals_per_s"] / 3600
-    print(f"3D ff, population {args.pop} (seed {args.seed}), "
+    print(f"3D ff, population {args.pop} (seed {args.seed}), {args.bonds} bonds, "
           f"{rows[0]['distinct_robots']} distinct robots")
     print(f"{'backend':8s} {'wall s':>8s} {'sim cpu s':>9s} {'evals/s':>8s} {'efficiency':>10s} "
           f"{'paper run h':>11s}")
     for r in rows:
         print(f"{r['backend']:8s} {r['wall_s']:8.1f} {r['simulation_cpu_s']:9.1f} {r['evals_per_s']:8.3f} "
               f"{r['parallel_efficiency']:10.2f} {r['projected_paper_run_h']:11.1f}")
-    return {"population": args.pop, "seed": args.seed, "rows": rows}
+    return {"population": args.pop, "seed": args.seed, "bonds": args.bonds, "rows": rows}
 
 
 def short_run(args: argparse.Namespace) -> dict:
@@ -78,6 +83,11 @@ def main() -> None:
     parser.add_argument("--gens", type=int, default=5)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--out", default="runs/short3d")
+    parser.add_argument("--bonds", choices=("beam", "tendons"), default="beam",
+                        help="bond element (backends mode; default: the default, beam)")
+    parser.add_argument("--backends", nargs="+", default=["serial", "process", "thread"],
+                        choices=("serial", "process", "thread"),
+                        help="backends to time (efficiency is relative to serial, if timed)")
     parser.add_argument("--json", help="also write the results here")
     args = parser.parse_args()
     results = backends(args) if args.mode == "backends" else short_run(args)

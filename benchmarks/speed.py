@@ -2,9 +2,10 @@
 
 For each robot of a fixed set (2D 5×5, 3D 112-voxel slab with and without hard voxels, the
 7×7×7 block, the paper's biped/tripod/multiped, the shipped evolved 3D walkers) and each
-model (`MODELS`: the default, where bonds, floor, self-collision and drag are one C loop; the
-same with beam bonds (`Scene.bond_element` "beam"); the same physics with MuJoCo doing floor contacts, self-collision and drag; everything in
-MuJoCo, i.e. the exported MJCF): median over
+model (`MODELS`: the default, where beam bonds, floor, self-collision and drag are one C loop;
+the same with 8 tendons per bond, the default before #8; the same physics with MuJoCo doing
+floor contacts, self-collision and drag; everything in MuJoCo, i.e. the exported MJCF with
+its tendons): median over
 `--repeats` full `simulate` calls (compile included) of CPU and wall seconds, µs per step,
 steps, and the ratio to the paper engine's optimised cost (0.0125·N CPU-s per 0.55 s
 evaluation of N voxels, measured on this machine; <1 = faster). Our overhead around MuJoCo:
@@ -12,7 +13,7 @@ the same model and state stepped by one bare ``mj_step(model, data, nstep=steps)
 (bonds registered, no Python per step, no compile) vs `simulate`'s total CPU time. And a
 population's throughput (evaluations/s) with 1 and 2 worker processes (`ProcessBackend`).
 
-    /work/venv/bin/python benchmarks/speed.py [--repeats 3] [--models default mujoco-contacts]
+    /work/venv/bin/python benchmarks/speed.py [--repeats 3] [--models default tendon-bonds]
         [--robots slab_112 ...] [--json docs/performance.json] [--md docs/performance_results.md]
 """
 
@@ -39,11 +40,12 @@ ROOT = Path(__file__).resolve().parents[1]
 VOXELYZE_CPU_S_PER_VOXEL = 0.0125  # optimised paper engine, per 0.55 s evaluation
 VOXELYZE_UNOPTIMISED = 0.087  # the paper's own binary
 MUJOCO_CONTACTS = {"contact_shape": "point"}  # MuJoCo point floor, collision spheres, viscosity
+TENDON_BONDS = {"bond_element": "tendons"}  # 8 tendons per bond (the default before #8)
 MODELS = {
     "default": {},
-    "beam": {"bond_element": "beam"},  # the default with one beam element per bond
+    "tendon-bonds": TENDON_BONDS,
     "mujoco-contacts": MUJOCO_CONTACTS,
-    "tendon": {**MUJOCO_CONTACTS, "bond_backend": "tendon"},
+    "tendon": {**MUJOCO_CONTACTS, **TENDON_BONDS, "bond_backend": "tendon"},
 }
 
 
@@ -161,7 +163,7 @@ def markdown(report: dict) -> str:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--models", nargs="+", default=["default", "mujoco-contacts"],
+    parser.add_argument("--models", nargs="+", default=["default", "tendon-bonds"],
                         choices=sorted(MODELS))
     parser.add_argument("--robots", nargs="+", help="subset of robot names")
     parser.add_argument("--population", type=int, default=8,
