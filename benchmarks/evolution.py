@@ -51,15 +51,17 @@ def backends(args: argparse.Namespace) -> dict:
     serial = next((row["wall_s"] for row in rows if row["backend"] == "serial"), None)
     for row in rows:
         row["parallel_efficiency"] = (serial / row["wall_s"] / row["workers"]
-                                      if serial is not None else float("nan"))
+                                      if serial is not None else None)
         row["projected_paper_run_h"] = 100 * 300 / row["evals_per_s"] / 3600
     print(f"3D ff, population {args.pop} (seed {args.seed}), {args.bonds} bonds, "
           f"{rows[0]['distinct_robots']} distinct robots")
     print(f"{'backend':8s} {'wall s':>8s} {'sim cpu s':>9s} {'evals/s':>8s} {'efficiency':>10s} "
           f"{'paper run h':>11s}")
     for r in rows:
+        efficiency = r["parallel_efficiency"]
         print(f"{r['backend']:8s} {r['wall_s']:8.1f} {r['simulation_cpu_s']:9.1f} {r['evals_per_s']:8.3f} "
-              f"{r['parallel_efficiency']:10.2f} {r['projected_paper_run_h']:11.1f}")
+              f"{'—' if efficiency is None else f'{efficiency:.2f}':>10s} "
+              f"{r['projected_paper_run_h']:11.1f}")
     return {"population": args.pop, "seed": args.seed, "bonds": args.bonds, "rows": rows}
 
 
