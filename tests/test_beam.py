@@ -1,9 +1,10 @@
-"""Beam bond elements (`Scene.bond_element` "beam"): one co-rotated linear beam per bond.
+"""Beam bond elements (`Scene.bond_element` "beam", the default): one co-rotated beam per bond.
 
 Mechanics against theory (axial, cantilever, shear, muscle strain) run for both elements in
 test_physics_mechanics.py; here: the beam's linear stiffness and damping equal the tendon
-bundle's, it exerts nothing under rigid motion, conserves momentum and angular momentum
-exactly, keeps mirror symmetry, and is refused where it cannot run.
+bundle's, so does its law along the axis at large strain, it exerts nothing under rigid
+motion, conserves momentum and angular momentum exactly, keeps mirror symmetry, and is
+refused where it cannot run.
 """
 
 from __future__ import annotations
@@ -43,9 +44,9 @@ def native_model(robot: Robot) -> mujoco.MjModel:
     return compile_robot(robot, physics=Physics()).native_model
 
 
-def split(model: mujoco.MjModel, linear: np.ndarray, angular: np.ndarray) -> np.ndarray:
-    """A dof vector from per-voxel linear and angular parts ``(n_voxels, 3 or 1)``: 3D free
-    joints (3 + 3), 2D (slide x, slide z, hinge y)."""
+def split(linear: np.ndarray, angular: np.ndarray) -> np.ndarray:
+    """A dof vector from per-voxel linear ``(n_voxels, 3 or 2)`` and angular ``(n_voxels, 3
+    or 1)`` parts: 3D free joints (3 + 3), 2D (slide x, slide z, hinge y)."""
     return np.concatenate([linear, angular], axis=1).ravel()
 
 
@@ -73,14 +74,35 @@ def test_linear_stiffness_and_damping_equal_the_tendon_bundles(dim):
     rest = {e: passive_forces(robot, e, model.qpos0, zero)[0] for e in ("tendons", "beam")}
     assert np.abs(rest["beam"]).max() < 1e-12
     linear, angular = random_parts(model, np.random.default_rng(dim))
-    cases = [(displaced(model, split(model, 1e-8 * linear, 0 * angular)), zero),
-             (displaced(model, split(model, 0 * linear, 1e-5 * angular)), zero),
-             (model.qpos0, split(model, 1e-3 * linear, 0 * angular)),
-             (model.qpos0, split(model, 0 * linear, angular))]
+    cases = [(displaced(model, split(1e-8 * linear, 0 * angular)), zero),
+             (displaced(model, split(0 * linear, 1e-5 * angular)), zero),
+             (model.qpos0, split(1e-3 * linear, 0 * angular)),
+             (model.qpos0, split(0 * linear, angular))]
     for qpos, qvel in cases:
         change = {e: passive_forces(robot, e, qpos, qvel)[0] - rest[e] for e in rest}
         error = np.linalg.norm(change["beam"] - change["tendons"])
         assert error < 1e-4 * np.linalg.norm(change["tendons"])
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("strain", [-0.14, -0.05, 0.05, 0.10])
+def test_axial_law_is_the_tendon_bundles(dim, strain):
+    """Stretched or compressed far beyond the linear range (a muscle's 14 %), a two-voxel
+    bar pulls back with its tendons' force, which stiffens in tension and softens in
+    compression (3D: +10 % at +10 %, −14 % at −14 % against E·L·strain)."""
+    robot = Robot.from_body(np.ones((2, 1, 1) if dim == 3 else (2, 1), dtype=np.int8))
+    model = native_model(robot)
+    qpos = model.qpos0.copy()
+    qpos[model.nq // 2] += strain * 1e-3  # second voxel's x
+    forces = {e: passive_forces(robot, e, qpos, np.zeros(model.nv))[0] for e in ("tendons",
+                                                                                  "beam")}
+    x = model.nv // 2  # second voxel's x force (the first voxel's is dof 0)
+    beam = forces["beam"]
+    assert beam[x] == pytest.approx(forces["tendons"][x], rel=2e-4)  # tendons: ~2e-5 N at rest
+    assert beam[0] == -beam[x]
+    assert np.abs(np.delete(beam, [0, x])).max() < 1e-12
+    linear = -1e7 * 1e-3 * strain * 1e-3  # -E·L·(strain·L), N
+    assert abs(beam[x] / linear - 1.0) > 0.02  # not Hookean
 
 
 def world_wrench(data: mujoco.MjData, qfrc: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -102,8 +124,8 @@ def test_large_deformation_conserves_momentum_and_angular_momentum():
     model = native_model(robot)
     rng = np.random.default_rng(7)
     linear, angular = random_parts(model, rng)
-    qpos = displaced(model, split(model, 2e-4 * linear, 0.3 * angular))
-    qvel = split(model, *random_parts(model, rng))
+    qpos = displaced(model, split(2e-4 * linear, 0.3 * angular))
+    qvel = split(*random_parts(model, rng))
     qfrc, data = passive_forces(robot, "beam", qpos, qvel, time=0.01)
     force, torque = world_wrench(data, qfrc)
     scale = np.abs(qfrc[:3]).max()
