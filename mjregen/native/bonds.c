@@ -1,9 +1,11 @@
-/* mjregen native bond forces: every bond tendon of a robot in one tight loop.
+/* mjregen native bond forces: every bond of a robot in one tight loop.
 
-   Reproduces the spatial tendons of `mjregen.compile` (site-to-site springs with
-   stiffness-proportional dampers, muscle-driven rest lengths, optional strain-rate drive)
-   as forces added to qfrc_passive from MuJoCo's passive-force callback, on a model that has
-   the same bodies but no sites or tendons. MuJoCo keeps bodies, contacts and integration.
+   Either reproduces the spatial tendons of `mjregen.compile` (site-to-site springs with
+   stiffness-proportional dampers, muscle-driven rest lengths, optional strain-rate drive),
+   or computes one beam element per bond with the same linear stiffness (`beam_bonds`,
+   `Scene.bond_element` "beam"), as forces added to qfrc_passive from MuJoCo's passive-force
+   callback, on a model that has the same bodies but no sites or tendons. MuJoCo keeps
+   bodies, contacts and integration.
 
    With the paper engine's contacts (`Scene.contact_shape` "engine") it also computes, in this
    order, the voxels' drag, their self-collision and the engine's floor (penalty spring and
@@ -448,21 +450,22 @@ static inline void to_frame(const double* R, const double* v, double* out) {
   out[2] = R[2] * v[0] + R[5] * v[1] + R[8] * v[2];
 }
 
-/* Beam bonds: one co-rotated linear beam element per face bond, with the linear stiffness
-   of the bond's 8 calibrated tendons (axial k_a, transverse k_s, bending k_b, torsion k_t)
-   and stiffness-proportional damping C = beta K: 8x less work than the tendon loop, and,
-   like the paper engine's bond, Hookean in the bond's own frame. That frame is the mid
-   frame M = R_i exp(Delta/2) (symmetric in i and j), with Delta the rotation vector of
-   q_i^-1 q_j (j relative to i); there the nodes' rotations are -Delta/2 and +Delta/2, so
-   the symmetric (shear) rotation vanishes and, with e the bond's rest axis,
-     u = M^T (p_j - p_i) - l0 e                   (j's displacement from rest)
-     F_j = -k_a (u.e) e - k_s (u - (u.e) e),  F_i = -F_j,
-     B = k_b (Delta - (Delta.e) e) + k_t (Delta.e) e,
-     T_i = -(d x F_j)/2 + B,  T_j = -(d x F_j)/2 - B     (d = p_j - p_i),
+/* Beam bonds: one co-rotated beam element per face bond, with the linear stiffness of the
+   bond's 8 calibrated tendons (axial k_a, transverse k_s, bending k_b, torsion k_t) and
+   stiffness-proportional damping C = beta K: 8x less work than the tendon loop. It works in
+   the bond's mid frame M = R_i exp(Delta/2) (symmetric in i and j), with Delta the rotation
+   vector of q_i^-1 q_j (j relative to i); there the nodes' rotations are -Delta/2 and
+   +Delta/2, so the symmetric (shear) rotation vanishes. With e the bond's rest axis and
+   d = M^T (p_j - p_i):
+     transverse (Hookean, like the paper engine's beam):  F_j,perp = -k_s d_perp
+     axial (the tendons' own law, stiffening in tension): F_j.e = -k0 (l - l0)
+        - kd (s - s0) l / s,  l = d.e, s = sqrt(l^2 + D^2), s0 = sqrt(l0^2 + D^2)
+     B = k_b Delta_perp + k_t (Delta.e) e
+     F_i = -F_j,  T_i = -(d x F_j)/2 + B,  T_j = -(d x F_j)/2 - B,
    each displacement plus beta times its rate (rates in the frame turning with the mean
-   angular velocity). Linearised this is the Euler-Bernoulli (k_s = E L) or Timoshenko
-   (k_s = G L) beam of the tendons; momentum and angular momentum are conserved exactly
-   (T_i + T_j + d x F_j = 0). */
+   angular velocity; the axial damping linear, beta k_a). Linearised this is the
+   Euler-Bernoulli (k_s = E L) or Timoshenko (k_s = G L) beam of the tendons; momentum and
+   angular momentum are conserved exactly (T_i + T_j + d x F_j = 0). */
 static void beam_bonds(const mjrBonds* b, double ep, double em, double rp, double rm) {
   double L = b->voxel_size;
   for (int n = 0; n < b->nbeam; n++) {
@@ -536,8 +539,8 @@ static void beam_bonds(const mjrBonds* b, double ep, double em, double rp, doubl
     const double* law = b->beam_law + 3 * n;
     double l = d[axis], lat2 = law[2];
     double s_now = sqrt(l * l + lat2), s_rest = sqrt(rest * rest + lat2);
-    F[axis] = -law[0] * (l - rest) - law[1] * (s_now - s_rest) * l / s_now
-              - beta * k[0] * dd[axis];
+    F[axis] = -law[0] * (l - rest) - beta * k[0] * dd[axis];
+    if (s_now > 0.0) F[axis] -= law[1] * (s_now - s_rest) * l / s_now;
     cross(d, F, dF);
     for (int a = 0; a < 3; a++) {
       Ti[a] = -0.5 * dF[a] + B[a];
