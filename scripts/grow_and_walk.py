@@ -94,7 +94,8 @@ def _load_source(args: argparse.Namespace) -> tuple[Robot, np.ndarray | None, st
         recorded = _recorded_physics(path)
         if recorded is not None:
             physics = recorded
-            source += f" (walked with its recorded physics: {physics.scene.bond_element} bonds)"
+            source += (" (walked with its recorded physics: bond element "
+                       f"{physics.scene.bond_element!r})")
     growth = nca.grow()
     return growth.robot(), np.asarray(growth.states[0]), source, physics
 
