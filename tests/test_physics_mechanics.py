@@ -126,7 +126,7 @@ def test_hanging_column_stretches_as_E_predicts(dim, material, E, element):
 
 
 def cantilever_sag(n: int, material: int, *, dim: int, gravity: float, settle: float,
-                   bond_model: str = "euler_bernoulli", bond_element: str = "tendons") -> float:
+                   bond_model: str = "euler_bernoulli", bond_element: str = "beam") -> float:
     """Tip sag (m) of a horizontal bar of n voxels whose first voxel is clamped, floor off.
 
     Averaged over the last 20 ms of `settle` s.
@@ -198,8 +198,9 @@ def test_cantilever_2d_equals_3d_and_matches_the_paper_engine():
     """One model for both dimensions; 5 hard voxels sag 0.2845 mm in the paper's engine.
 
     Its bonds have no shear compliance, so it matches EB (0.2857 mm), as do our default
-    shear-rigid bonds (0.2835 mm); Timoshenko bonds add 3.5 %. 2D and 3D differ by 0.14 %
-    (the settling bars still ring a little with ζ = 0.4).
+    shear-rigid beam bonds (0.2840 mm; tendon bonds 0.2835 mm); Timoshenko bonds add 3.5 %.
+    2D and 3D agree to 1e-8 with beams (0.14 % with tendons, whose settling bars still ring a
+    little with ζ = 0.4).
     """
     sag2 = cantilever_sag(5, Material.HARD, dim=2, gravity=G, settle=0.3)
     sag3 = cantilever_sag(5, Material.HARD, dim=3, gravity=G, settle=0.3)
@@ -229,7 +230,7 @@ def test_two_voxel_cantilever_measures_shear_stiffness(bond_model, shear_modulus
 
 
 def muscle_pair(codes: tuple[int, int], *, waveform: str = "contract",
-                bond_element: str = "tendons") -> tuple[np.ndarray, np.ndarray]:
+                bond_element: str = "beam") -> tuple[np.ndarray, np.ndarray]:
     """(t, centre distance) of a free two-voxel bar, no floor or gravity, actuated from t=0;
     bond damping ratio 1 (overdamped: a clean first-order lag)."""
     physics = Physics().replace_scene(floor=False, gravity=0.0, settle_time=0.0,
