@@ -33,6 +33,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from mjregen.compile import BeamTable
 from mjregen.errors import MjregenError
 
 SOURCE = Path(__file__).with_name("native") / "bonds.c"
@@ -191,7 +192,7 @@ class NativeBonds:
                 joint = model.body_jntadr[body]
                 qadr[v] = model.jnt_qposadr[joint]
                 vadr[v] = model.jnt_dofadr[joint]
-        beams = hasattr(table, "beta")
+        beams = isinstance(table, BeamTable)
         self.arrays = {"qadr": qadr, "vadr": vadr, "pos0": pos0,
                        "scratch": np.zeros((n_vox, SCRATCH_WIDTH))}
         struct = _Bonds(dim=dim, nvox=n_vox, nten=0, nmus=0, contract=1, rate_drive=0,

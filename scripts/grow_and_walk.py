@@ -35,6 +35,7 @@ import numpy as np
 from mjregen.errors import MjregenError
 from mjregen.fileio import atomic_open
 from mjregen.grid import Robot
+from mjregen.physics import Physics
 
 DEFAULT_NCA = Path(__file__).resolve().parents[1] / "assets" / "nca" / "walker_3d.npz"
 OUTPUTS = ("robot.npy", "robot.xml", "growth.png", "walk.mp4", "summary.json")
@@ -68,12 +69,10 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _load_source(args: argparse.Namespace) -> tuple[Robot, np.ndarray | None, str, object]:
+def _load_source(args: argparse.Namespace) -> tuple[Robot, np.ndarray | None, str, Physics]:
     """(robot, growth states ``(T, *grid)`` or None, description of the source, `Physics`):
     the physics is the default, or for a shipped NCA the one it was evolved and recorded
     with (its entry in the folder's manifest.json)."""
-    from mjregen.physics import Physics
-
     if args.robot is not None:
         robot = Robot.load(args.robot)
         _check_dim(args.dim, robot.dim, args.robot)
@@ -100,10 +99,8 @@ def _load_source(args: argparse.Namespace) -> tuple[Robot, np.ndarray | None, st
     return growth.robot(), np.asarray(growth.states[0]), source, physics
 
 
-def _recorded_physics(path: Path):
+def _recorded_physics(path: Path) -> Physics | None:
     """The physics a shipped NCA was evaluated with (assets manifest), or None."""
-    from mjregen.physics import Physics
-
     manifest = path.with_name("manifest.json")
     if not manifest.is_file():
         return None

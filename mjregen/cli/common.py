@@ -75,6 +75,6 @@ def physics_from_args(args: argparse.Namespace):
 
     presets = {"paper": paper_physics, "sphere": sphere_physics, "legacy": legacy_physics}
     physics = presets.get(args.physics, Physics)()
-    if getattr(args, "bonds", None):
+    if args.bonds is not None:
         physics = physics.replace_scene(bond_element=args.bonds)
     return physics if args.settle is None else physics.replace_scene(settle_time=args.settle)
