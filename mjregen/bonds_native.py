@@ -7,7 +7,7 @@ damper and muscle-drive forces from ``qpos``/``qvel`` and adds them to ``qfrc_pa
 MuJoCo still integrates, collides and solves contacts. The tendon model stays the exported
 MJCF (`CompiledRobot.to_xml`) and gives the same motion (tests/test_native.py).
 
-The C file is compiled on first use with the system C compiler (``$CC``, else ``cc``/``gcc``)
+The C files (`native/bonds.c`, and `native/step.c` for `mjregen.stepping`) are compiled on first use with the system C compiler (``$CC``, else ``cc``/``gcc``)
 against the headers that ship in the installed ``mujoco`` wheel; the library is cached under
 ``$MJREGEN_CACHE`` (default ``~/.cache/mjregen``), keyed by the source and MuJoCo version.
 It reads only struct fields (no MuJoCo calls), so it needs no link to ``libmujoco``.
@@ -36,7 +36,8 @@ import numpy as np
 from mjregen.compile import BeamTable
 from mjregen.errors import MjregenError
 
-SOURCE = Path(__file__).with_name("native") / "bonds.c"
+SOURCES = (Path(__file__).with_name("native") / "bonds.c",
+           Path(__file__).with_name("native") / "step.c")  # step.c: `mjregen.stepping`
 _lock = threading.Lock()
 _library: ctypes.CDLL | None = None
 _callback = None  # the ctypes function pointer handed to MuJoCo (kept alive here)
@@ -86,7 +87,8 @@ def _compiler() -> str | None:
 
 def library_path() -> Path:
     """Where the compiled library for this source and MuJoCo version lives (may not exist)."""
-    key = hashlib.sha256(SOURCE.read_bytes() + mujoco.__version__.encode()
+    key = hashlib.sha256(b"".join(source.read_bytes() for source in SOURCES)
+                         + mujoco.__version__.encode()
                          + mujoco.__file__.encode()).hexdigest()[:16]
     root = Path(os.environ.get("MJREGEN_CACHE",
                                Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache"))
@@ -116,7 +118,7 @@ def build(path: Path | None = None) -> Path:
     with tempfile.TemporaryDirectory(dir=path.parent) as tmp:
         out = Path(tmp) / path.name
         command = [compiler, "-O3", "-std=c11", "-fPIC", "-shared", "-fno-fast-math",
-                   f"-I{include}", str(SOURCE), "-o", str(out), "-lm", "-lpthread"]
+                   f"-I{include}", *map(str, SOURCES), "-o", str(out), "-lm", "-lpthread"]
         done = subprocess.run(command, capture_output=True, text=True)
         if done.returncode != 0:
             raise NativeBuildError(f"building the native bond library failed:\n{' '.join(command)}"
@@ -155,6 +157,9 @@ def _load() -> ctypes.CDLL:
         library.mjr_unregister.argtypes = [ctypes.c_void_p]
         library.mjr_unregister.restype = None
         library.mjr_registered.restype = ctypes.c_int
+        library.mjr_step.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p,
+                                     ctypes.c_int, ctypes.c_void_p]
+        library.mjr_step.restype = ctypes.c_int
         current = mujoco.get_mjcb_passive()
         if current is not None:
             raise NativeBuildError(
@@ -165,6 +170,11 @@ def _load() -> ctypes.CDLL:
         mujoco.set_mjcb_passive(callback)
         _library, _callback = library, callback
         return library
+
+
+def library() -> ctypes.CDLL:
+    """The loaded native library (built on first use; raises NativeBuildError)."""
+    return _load()
 
 
 def registered() -> int:

@@ -30,6 +30,7 @@ BOND_MODELS = ("timoshenko", "euler_bernoulli")
 CONTACT_SHAPES = ("box", "sphere", "point", "engine")
 BOND_BACKENDS = ("auto", "native", "tendon")
 BOND_ELEMENTS = ("beam", "tendons")
+STEPPERS = ("auto", "native", "mujoco")
 MODE_RATIO = 2.7  # fastest bond-network mode / a Timoshenko bond's sqrt(k/m) (`Physics.timestep`)
 POINT_RADIUS = 1e-6  # contact_shape "point": radius of the centre sphere, in voxel lengths
 
@@ -209,6 +210,13 @@ class Scene:
         "auto" (the default: native where it builds and the integrator is Euler, else
         tendon, with a warning in the log). Both give the same motion to ~1e-15 m, not bit
         for bit (tests/test_native.py).
+      stepper: what advances the state each step: "mujoco" (``mj_step``), "native" (MuJoCo's
+        Euler step for independent voxel bodies in one C loop, `mjregen.stepping`: the same
+        equations with MuJoCo's own mass matrix and gravity, to rounding, about half the
+        CPU time of a 3D step; needs the native bond backend and the engine's contacts, so
+        that MuJoCo has nothing to do but integrate) or "auto" (the default: native where
+        the model qualifies, else ``mj_step``). Descriptions without this field (older runs
+        and asset manifests) load as "mujoco", so they replay bit for bit.
     """
 
     voxel_size: float = 1e-3
@@ -234,6 +242,7 @@ class Scene:
     collision_radius: float = 0.625
     bond_backend: str = "auto"
     bond_element: str = "beam"
+    stepper: str = "auto"
 
     def __post_init__(self) -> None:
         _check("voxel_size", self.voxel_size, low=0.0)
@@ -256,7 +265,7 @@ class Scene:
         _check("contact_damping", self.contact_damping, low=0.0, low_open=False)
         for name, allowed in (("bond_model", BOND_MODELS), ("contact_shape", CONTACT_SHAPES),
                               ("bond_backend", BOND_BACKENDS),
-                              ("bond_element", BOND_ELEMENTS)):
+                              ("bond_element", BOND_ELEMENTS), ("stepper", STEPPERS)):
             if getattr(self, name) not in allowed:
                 raise PhysicsParameterError(
                     f"{name} must be one of {allowed}, got {getattr(self, name)!r}")
@@ -282,6 +291,13 @@ class Scene:
                 "bond_element 'beam' is computed by the native bond backend: it needs "
                 "bond_backend 'native' or 'auto' and the euler integrator (or use "
                 "bond_element 'tendons')")
+        if self.stepper == "native" and not (self.bond_backend != "tendon"
+                                             and self.integrator == "euler"
+                                             and self.contact_shape == "engine"):
+            raise PhysicsParameterError(
+                "stepper 'native' integrates voxel bodies whose forces all come from the native "
+                "bond loop: it needs bond_backend 'native' or 'auto', the euler integrator and "
+                "contact_shape 'engine' (or use stepper 'auto' or 'mujoco')")
         if self.bond_backend == "native" and self.integrator != "euler":
             raise PhysicsParameterError(
                 "bond_backend 'native' supports the euler integrator only (its muscle drive "
@@ -339,6 +355,8 @@ class Physics:
             # descriptions written before beam bonds existed (runs, asset manifests) meant
             # the tendon bonds, then the only element
             scene.setdefault("bond_element", "tendons")
+            # ... and before the native stepper: mj_step (same motion to rounding)
+            scene.setdefault("stepper", "mujoco")
             return cls(materials=materials, scene=Scene(**scene))
         except (KeyError, TypeError) as error:
             raise PhysicsParameterError(f"invalid physics description: {error}") from None

@@ -137,6 +137,7 @@ class Simulation:
                 self._drive = self.data.ctrl[: muscles.count]
                 self._plus_c = muscles.damping * self._plus
                 self._minus_c = muscles.damping * self._minus
+        self.stepper = _stepper_for(model, self.data, scene, self.native)
         dof_speed = np.ones(model.nv)  # 1/(m/s) for slides, L/(m/s) for rotations
         dof_speed[model.jnt_dofadr[model.jnt_type == mujoco.mjtJoint.mjJNT_HINGE]] = 0.0
         for adr in model.jnt_dofadr[model.jnt_type == mujoco.mjtJoint.mjJNT_FREE]:
@@ -175,12 +176,18 @@ class Simulation:
         model, data = self.model, self.data
         dt = model.opt.timestep
         drive = self._muscles is not None and not self.native
-        if com is None and not drive:
-            # nothing to do in Python between checks: MuJoCo steps in C
+        if self.stepper is not None or (com is None and not drive):
+            # nothing to do in Python between checks: the steps run in C
             done = 0
             while done < n_steps:
                 chunk = min(CHECK_EVERY, n_steps - done)
-                mujoco.mj_step(model, data, nstep=chunk)
+                if self.stepper is None:
+                    mujoco.mj_step(model, data, nstep=chunk)
+                else:
+                    part = None if com is None else np.empty((chunk, 3))
+                    chunk = self.stepper.step(chunk, part)  # fewer after a bad value
+                    if com is not None:
+                        com[done: done + chunk] = part[:chunk]
                 done += chunk
                 reason = self.check()
                 if reason:
@@ -227,6 +234,21 @@ class Simulation:
         mujoco.mj_kinematics(self.model, self.data)
         mujoco.mj_comPos(self.model, self.data)
         return self.data.subtree_com[0].copy()
+
+
+def _stepper_for(model: mujoco.MjModel, data: mujoco.MjData, scene: Scene,
+                 native_bonds: bool):
+    """The `NativeStepper` that `scene.stepper` asks for, or None for ``mj_step``."""
+    if scene.stepper == "mujoco":
+        return None
+    from mjregen.stepping import NativeStepper, unsupported
+
+    reason = "the bonds are MuJoCo tendons" if not native_bonds else unsupported(model)
+    if not reason:
+        return NativeStepper(model, data)
+    if scene.stepper == "native":
+        raise PhysicsParameterError(f"stepper 'native' cannot step this model: {reason}")
+    return None
 
 
 def simulation_of(compiled: CompiledRobot) -> Simulation:
