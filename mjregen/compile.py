@@ -457,6 +457,7 @@ def compile_robot(
     ends, offsets, stiffnesses, dampings, rests = [], [], [], [], []
     beam_stiffness, beam_law, beam_beta, beam_weights = [], [], [], []
     max_k_per_m = 0.0
+    bond_kinds: dict[tuple, tuple] = {}
     for i, j, axis in bonds:
         p_i, p_j = physics.materials[voxels[i][1]], physics.materials[voxels[j][1]]
         e_bond = _series(p_i.youngs_modulus, p_j.youngs_modulus)
@@ -474,16 +475,13 @@ def compile_robot(
         beam_beta.append(damping_per_stiffness)
         if is_muscle[i] or is_muscle[j]:
             beam_weights.append(bond_weights)
-        law = [0.0, 0.0, 0.0]
-        for offset_i, offset_j, stiffness in _bond_tendons(axis, dim, L, a, b, e_bond, g_bond):
-            lateral2 = float(np.sum(np.subtract(offset_j, offset_i) ** 2))
-            law[0 if lateral2 == 0.0 else 1] += stiffness
-            law[2] = max(law[2], lateral2)  # the same for all diagonals of a bond
-            site_i, site_j = _mjcf(offset_i), _mjcf(offset_j)
-            extent = float(np.linalg.norm(np.subtract(site_j, site_i)))
-            k_tendon = _mjcf(stiffness)
-            c_tendon = _mjcf(stiffness * damping_per_stiffness)
-            rest = _mjcf(math.sqrt(L * L + extent * extent))
+        key = (axis, e_bond, g_bond, damping_per_stiffness)
+        if key not in bond_kinds:  # robots have few distinct bonds: build each kind once
+            bond_kinds[key] = _bond_tendon_values(axis, dim, L, a, b, e_bond, g_bond,
+                                                  damping_per_stiffness)
+        law, bond_tendons = bond_kinds[key]
+        for offset_i, offset_j, site_i, site_j, k_tendon, c_tendon, rest, extent \
+                in bond_tendons:
             if tendons:
                 tendon = spec.add_tendon(name=f"t{len(stiffnesses)}")
                 tendon.wrap_site(_site(bodies[i], i, offset_i, sites))
@@ -664,6 +662,25 @@ def _bond_tendons(axis: int, dim: int, L: float, a: float, b: float, e_bond: flo
             offset = vector({w: s * a for w, s in zip(lateral_axes, signs)})
             tendons.append((offset, offset, k_axial_total / 2 ** n))
     return tendons
+
+
+def _bond_tendon_values(axis: int, dim: int, L: float, a: float, b: float, e_bond: float,
+                        g_bond: float, damping_per_stiffness: float) -> tuple[list, list]:
+    """A bond's axial law [k straight N/m, k diagonal N/m, diagonals' lateral extent² m²] and
+    its tendons as (offset_i, offset_j, site_i, site_j, k N/m, c N s/m, rest m, extent m),
+    site offsets and numbers rounded as the MJCF stores them (`_mjcf`)."""
+    law = [0.0, 0.0, 0.0]
+    out = []
+    for offset_i, offset_j, stiffness in _bond_tendons(axis, dim, L, a, b, e_bond, g_bond):
+        lateral2 = float(np.sum(np.subtract(offset_j, offset_i) ** 2))
+        law[0 if lateral2 == 0.0 else 1] += stiffness
+        law[2] = max(law[2], lateral2)  # the same for all diagonals of a bond
+        site_i, site_j = _mjcf(offset_i), _mjcf(offset_j)
+        extent = float(np.linalg.norm(np.subtract(site_j, site_i)))
+        out.append((offset_i, offset_j, site_i, site_j, _mjcf(stiffness),
+                    _mjcf(stiffness * damping_per_stiffness),
+                    _mjcf(math.sqrt(L * L + extent * extent)), extent))
+    return law, out
 
 
 def _site(body: mujoco.MjsBody, voxel: int, offset: tuple[float, ...],

@@ -2,11 +2,13 @@
 
 `simulate(robot)` compiles the robot (`mjregen.compile`), lets it settle without actuation
 for the scene's settle time, then drives the muscles for the measured time and returns a
-`Result`. The hot loop is `mujoco.mj_step`. With the native bond backend (the default where
-a C compiler exists, `Scene.bond_backend`) bond forces and the muscle drive are computed in
-C inside MuJoCo's step, so `Simulation.run` calls ``mj_step(nstep=CHECK_EVERY)`` between
-stability checks and runs no Python per step. With the tendon backend the only per-step
-Python work is writing the driven tendons' rest lengths when the robot has muscles.
+`Result`. With the native bond backend (the default where a C compiler exists,
+`Scene.bond_backend`) bond forces and the muscle drive are computed in C inside MuJoCo's
+step, so `Simulation.run` advances ``CHECK_EVERY`` steps per call between stability checks
+and runs no Python per step; with the engine's contacts as well (the default) the steps are
+the native stepper's (`mjregen.stepping`: MuJoCo's Euler step for independent voxel bodies,
+to rounding, at half the cost), else ``mj_step``'s. With the tendon backend the only
+per-step Python work is writing the driven tendons' rest lengths when the robot has muscles.
 """
 
 from __future__ import annotations
@@ -44,7 +46,7 @@ class Result:
       n_voxels: number of voxels.
       stable: False when the state became NaN, MuJoCo warned, or a voxel ran away.
       reason: why the run is unstable ("" when stable).
-      steps: number of `mj_step` calls made.
+      steps: number of steps made.
       sim_time: simulated seconds.
       timestep: s.
       wall_time, cpu_time: seconds spent compiling and simulating (wall clock, process CPU).
@@ -76,7 +78,10 @@ class Simulation:
     With `bonds` (the native backend) the model is `CompiledRobot.native_model` (no
     tendons): the bond forces and the muscle drive are computed in C for this simulation's
     `data` (registered until the `Simulation` is garbage-collected), the model is not
-    modified, and `run` steps without Python in the loop.
+    modified, and `run` steps without Python in the loop. `stepper` is the
+    `mjregen.stepping.NativeStepper` that advances `data` when `scene.stepper` allows and the
+    model qualifies, else None (``mj_step``); derived quantities (``xpos``, ``subtree_com``)
+    are then not updated by `run`: call ``mj_kinematics`` (as `com` does).
 
     Args:
       model: the MuJoCo model.
@@ -169,7 +174,7 @@ class Simulation:
         """Advance `n_steps` steps; return "" or the reason the state became unstable.
 
         Args:
-          n_steps: number of `mj_step` calls.
+          n_steps: number of steps.
           com: optional ``(n_steps, 3)`` array, filled with the centre of mass (m) at the
             start of each step.
         """
@@ -245,7 +250,7 @@ def _stepper_for(model: mujoco.MjModel, data: mujoco.MjData, scene: Scene,
 
     reason = "the bonds are MuJoCo tendons" if not native_bonds else unsupported(model)
     if not reason:
-        return NativeStepper(model, data)
+        return NativeStepper(model, data, checked=True)
     if scene.stepper == "native":
         raise PhysicsParameterError(f"stepper 'native' cannot step this model: {reason}")
     return None

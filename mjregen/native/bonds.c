@@ -11,7 +11,7 @@
    order, the voxels' drag, their self-collision and the engine's floor (penalty spring and
    damper on the centre's penetration below the voxel's current half size, static/kinetic
    friction with a stick state per voxel kept in `d->userdata`); MuJoCo then has no contact
-   or constraint at all and only integrates the bodies.
+   or constraint at all and only integrates the bodies (or step.c does, `mjregen.stepping`).
 
    State is per mjData: `mjr_register(d, bonds)` before stepping, `mjr_unregister(d)` after;
    the callback does nothing for an unregistered mjData (so other models are unaffected).

@@ -8,7 +8,7 @@
    all of this: `mjregen.stepping`), MuJoCo's equations reduce to a constant diagonal mass
    matrix and a constant generalized gravity force:
 
-     qacc = (qfrc_passive + qfrc_applied + gravity) / M_ii
+     qacc = (qfrc_passive + qfrc_applied + gravity) / M_ii   (M_ii: mass or inertia)
      qvel += dt qacc;  qpos += dt qvel (free/ball joints: the normalized quaternion times
      exp(dt w / 2), w in the body frame)
 
@@ -28,9 +28,8 @@ void mjr_passive(const mjModel* m, mjData* d); /* bonds.c */
 
 typedef struct {
   int nv;
-  double dt;                /* s */
-  const double* inv_mass;   /* (nv) 1 / M_ii, 1/kg or 1/(kg m^2) */
-  const double* gravity;    /* (nv) generalized gravity force, N or N m */
+  double* inv_mass;         /* (nv) 1 / M_ii, 1/kg or 1/(kg m^2) (mjr_step_refresh) */
+  double* gravity;          /* (nv) generalized gravity force, N or N m (mjr_step_refresh) */
   int ncom;                 /* bodies in the centre of mass */
   const int* com_kind;      /* (ncom) 0 fixed at com_pos0, 1 free joint (position at
                                qpos[com_qadr]), 2 planar (com_pos0 + (q0, 0, q1)) */
@@ -102,11 +101,50 @@ static void quat_integrate(double* q, const double* w, double scale) {
   memcpy(q, p, 4 * sizeof(double));
 }
 
+/* The mass matrix's diagonal and the gravity force from the model's current masses,
+   inertias, gravity and joint axes (bodies in their rest orientation: `mjregen.stepping`
+   checks that these equal MuJoCo's own M and qfrc_bias). */
+void mjr_step_refresh(const mjModel* m, const mjrStepper* s) {
+  const double* g = m->opt.gravity;
+  int on = !(m->opt.disableflags & mjDSBL_GRAVITY);
+  for (int j = 0; j < m->njnt; j++) {
+    int body = m->jnt_bodyid[j], dof = m->jnt_dofadr[j];
+    double mass = m->body_mass[body];
+    const double* inertia = m->body_inertia + 3 * body;
+    const double* axis = m->jnt_axis + 3 * j;
+    switch (m->jnt_type[j]) {
+      case mjJNT_FREE:
+        for (int a = 0; a < 3; a++) {
+          s->inv_mass[dof + a] = 1.0 / mass;
+          s->gravity[dof + a] = on ? mass * g[a] : 0.0;
+          s->inv_mass[dof + 3 + a] = 1.0 / inertia[a];
+          s->gravity[dof + 3 + a] = 0.0;
+        }
+        break;
+      case mjJNT_BALL:
+        for (int a = 0; a < 3; a++) {
+          s->inv_mass[dof + a] = 1.0 / inertia[a];
+          s->gravity[dof + a] = 0.0;
+        }
+        break;
+      case mjJNT_SLIDE:
+        s->inv_mass[dof] = 1.0 / mass;
+        s->gravity[dof] = on ? mass * (g[0] * axis[0] + g[1] * axis[1] + g[2] * axis[2]) : 0.0;
+        break;
+      default: /* hinge through the centre of mass */
+        s->inv_mass[dof] = 1.0 / (inertia[0] * axis[0] * axis[0] + inertia[1] * axis[1] * axis[1]
+                                  + inertia[2] * axis[2] * axis[2]);
+        s->gravity[dof] = 0.0;
+    }
+  }
+}
+
 /* Advance nstep steps; com (nstep, 3) or NULL receives the centre of mass at the start of
    each step. Returns the number of steps completed (< nstep after a bad value). */
 int mjr_step(const mjModel* m, mjData* d, const mjrStepper* s, int nstep, double* com) {
   const int nv = s->nv;
-  const double dt = s->dt;
+  const double dt = m->opt.timestep;
+  mjr_step_refresh(m, s); /* the caller may have changed gravity, masses or the step */
   for (int k = 0; k < nstep; k++) {
     if (com) centre_of_mass(s, d, com + 3 * k);
     memset(d->qfrc_passive, 0, nv * sizeof(double));

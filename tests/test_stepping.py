@@ -1,0 +1,159 @@
+"""Native stepper: MuJoCo's Euler step for voxel bodies, checked against mj_step and physics."""
+
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+import pytest
+
+from mjregen import bonds_native
+from mjregen.compile import compile_robot
+from mjregen.grid import Robot
+from mjregen.physics import Physics, PhysicsParameterError
+from mjregen.simulate import simulate, simulation_of
+from mjregen.stepping import NativeStepper, unsupported
+
+pytestmark = pytest.mark.skipif(not bonds_native.available(),
+                                reason="no C compiler for the native backend")
+
+SLAB = np.ones((4, 3, 2), dtype=np.int8)
+SLAB[:, :, 0] = np.where(np.arange(4)[:, None] % 2 == 0, 3, 4)
+SLAB[1, 1, 1] = 2
+MUJOCO = Physics().replace_scene(stepper="mujoco")
+NATIVE = Physics().replace_scene(stepper="native")
+
+
+def _run(robot: Robot, physics: Physics, steps: int, **compile_options):
+    sim = simulation_of(compile_robot(robot, physics=physics, **compile_options))
+    assert (sim.stepper is not None) == (physics.scene.stepper != "mujoco")
+    assert sim.run(steps) == ""
+    return sim
+
+
+@pytest.mark.parametrize("physics", [NATIVE, NATIVE.replace_scene(bond_element="tendons")],
+                         ids=["beams", "tendons"])
+@pytest.mark.parametrize("grid", [SLAB, SLAB[:, 1, :]], ids=["3d", "2d"])
+def test_same_motion_as_mj_step(grid, physics):
+    """Settle 5 ms, then walk: 3000 steps with floor contacts, friction and muscles."""
+    robot = Robot.from_body(grid)
+    physics = physics.replace_scene(settle_time=0.005)
+    a = _run(robot, physics.replace_scene(stepper="mujoco"), 3000)
+    b = _run(robot, physics, 3000)
+    assert b.data.time == pytest.approx(a.data.time, rel=1e-15)
+    assert np.max(np.abs(a.data.qpos - b.data.qpos)) < 1e-12  # m (and quaternion units)
+    assert np.max(np.abs(a.data.qvel - b.data.qvel)) < 1e-8 * max(1.0, np.max(np.abs(a.data.qvel)))
+    assert np.max(np.abs(a.data.qpos - a.model.qpos0)) > 1e-5  # it did move
+
+
+def test_clamped_voxels_stay_and_the_rest_moves_like_mj_step():
+    robot = Robot.from_body(np.full((4, 1, 1), 2, dtype=np.int8))
+    root = next(iter(robot.voxels()))[0]
+    physics = Physics().replace_scene(floor=False)
+    a = _run(robot, physics.replace_scene(stepper="mujoco"), 2000, clamped=[root],
+             elevation=2e-3)
+    b = _run(robot, physics.replace_scene(stepper="native"), 2000, clamped=[root],
+             elevation=2e-3)
+    assert np.max(np.abs(a.data.qpos - a.model.qpos0)) > 1e-6  # it sagged
+    assert np.max(np.abs(a.data.qpos - b.data.qpos)) < 1e-12
+    assert a.model.nbody - 1 == 4 and a.model.njnt == 3  # the clamped voxel has no joint
+
+
+def test_free_fall_is_semi_implicit_euler():
+    """No floor: after n steps z = z0 − g dt² n(n+1)/2 and v = −g n dt (exactly the Euler map)."""
+    physics = NATIVE.replace_scene(floor=False, drag_ratio=0.0)
+    sim = simulation_of(compile_robot(Robot.from_body(np.full((2, 2, 2), 1, np.int8)),
+                                      physics=physics))
+    z0 = sim.data.qpos[2]
+    n, dt, g = 1000, sim.model.opt.timestep, physics.scene.gravity
+    assert sim.run(n) == ""
+    assert sim.data.qvel[2] == pytest.approx(-g * n * dt, rel=1e-12)
+    assert sim.data.qpos[2] == pytest.approx(z0 - g * dt * dt * n * (n + 1) / 2, rel=1e-12)
+    assert np.allclose(sim.data.qvel[3:6], 0.0, atol=1e-9)  # no spin from a uniform fall
+
+
+def test_spin_about_a_fixed_axis_turns_by_omega_t():
+    """A lone voxel spun about a body axis: the quaternion turns by ω·t (no gravity, floor)."""
+    physics = NATIVE.replace_scene(floor=False, gravity=0.0, drag_ratio=0.0)
+    sim = simulation_of(compile_robot(Robot.from_body(np.ones((1, 1, 1), np.int8)),
+                                      physics=physics))
+    omega, n = 300.0, 4000  # rad/s
+    sim.data.qvel[3:6] = [0.0, 0.0, omega]
+    assert sim.run(n) == ""
+    angle = omega * n * sim.model.opt.timestep
+    quat = sim.data.qpos[3:7]
+    assert np.linalg.norm(quat) == pytest.approx(1.0, abs=1e-12)
+    expected = np.array([math.cos(angle / 2), 0.0, 0.0, math.sin(angle / 2)])
+    assert min(np.max(np.abs(quat - expected)), np.max(np.abs(quat + expected))) < 1e-9
+
+
+@pytest.mark.parametrize("name", ["tripod", "biped"])
+def test_paper_robot_walks_the_same_distance(name):
+    robot = Robot(np.load(f"assets/robots/paper/{name}.npy"))
+    a = simulate(robot, physics=MUJOCO, duration=0.1)
+    b = simulate(robot, physics=NATIVE, duration=0.1, record=True)
+    assert b.stable and b.steps == a.steps
+    assert b.distance == pytest.approx(a.distance, rel=1e-8, abs=1e-9)
+    assert a.distance > 1.0  # voxel lengths: it walked
+    # the recorded centre of mass is MuJoCo's at the start of each step
+    sim = simulation_of(compile_robot(robot, physics=NATIVE))
+    assert b.com[0] == pytest.approx(sim.com(), abs=1e-15)
+
+
+def test_default_uses_the_native_stepper_where_the_model_qualifies():
+    robot = Robot.from_body(SLAB)
+    assert simulation_of(compile_robot(robot)).stepper is not None
+    point = Physics().replace_scene(contact_shape="point", bond_element="tendons")
+    sim = simulation_of(compile_robot(robot, physics=point))  # MuJoCo contacts
+    assert sim.stepper is None
+    assert "contacts" in unsupported(sim.model)
+
+
+def test_native_stepper_refuses_what_it_cannot_step():
+    with pytest.raises(PhysicsParameterError, match="stepper 'native'"):
+        Physics().replace_scene(stepper="native", contact_shape="point",
+                                bond_element="tendons")
+    with pytest.raises(PhysicsParameterError, match="stepper must be one of"):
+        Physics().replace_scene(stepper="fast")
+    tendon_model = compile_robot(Robot.from_body(SLAB)).model  # the exported tendon MJCF
+    assert unsupported(tendon_model)  # MuJoCo contacts and tendons
+    with pytest.raises(ValueError, match="cannot step this model"):
+        NativeStepper(tendon_model, mujoco.MjData(tendon_model))
+    sim = simulation_of(compile_robot(Robot.from_body(SLAB)))
+    sim.data.xfrc_applied[1, 0] = 1e-3
+    with pytest.raises(ValueError, match="xfrc_applied"):
+        sim.run(10)
+
+
+def test_qfrc_applied_acts_like_in_mj_step():
+    physics = Physics().replace_scene(floor=False, gravity=0.0)
+    robot = Robot.from_body(SLAB)
+    sims = [simulation_of(compile_robot(robot, physics=physics.replace_scene(stepper=s)))
+            for s in ("mujoco", "native")]
+    for sim in sims:
+        sim.data.qfrc_applied[0] = 1e-4  # N on the first voxel along x
+        assert sim.run(500) == ""
+    assert sims[1].data.qvel[0] > 1e-5  # m/s: it pushed
+    assert np.max(np.abs(sims[0].data.qpos - sims[1].data.qpos)) < 1e-13
+
+
+def test_bad_state_stops_and_is_reported_unstable():
+    sim = simulation_of(compile_robot(Robot.from_body(SLAB)))
+    sim.data.qvel[4] = np.nan
+    reason = sim.run(1000)
+    assert "mjWARN_BAD" in reason and sim.steps == 0
+    sim = simulation_of(compile_robot(Robot.from_body(SLAB)))
+    sim.data.qvel[4] = 1e11  # rad/s: beyond MuJoCo's bad-value bound
+    assert "mjWARN_BAD" in sim.run(10)
+    # an unstable time step is reported as unstable, not raised
+    result = simulate(Robot.from_body(SLAB), physics=Physics().replace_scene(timestep_safety=3.0))
+    assert not result.stable and result.fitness == -21.0
+
+
+def test_descriptions_without_a_stepper_replay_with_mj_step():
+    values = Physics().to_dict()
+    assert values["scene"]["stepper"] == "auto"
+    del values["scene"]["stepper"]
+    assert Physics.from_dict(values).scene.stepper == "mujoco"
+    assert Physics.from_dict(Physics().to_dict()) == Physics()
