@@ -2,18 +2,19 @@
 
 For each robot of a fixed set (2D 5×5, 3D 112-voxel slab with and without hard voxels, the
 7×7×7 block, the paper's biped/tripod/multiped, the shipped evolved 3D walkers) and each
-model (`MODELS`: the default, where beam bonds, floor, self-collision and drag are one C loop;
-the same with 8 tendons per bond, the default before #8; the same physics with MuJoCo doing
-floor contacts, self-collision and drag; everything in MuJoCo, i.e. the exported MJCF with
-its tendons): median over
-`--repeats` full `simulate` calls (compile included) of CPU and wall seconds, µs per step,
-steps, and the ratio to the paper engine's optimised cost (0.0125·N CPU-s per 0.55 s
-evaluation of N voxels, measured on this machine; <1 = faster). Our overhead around MuJoCo:
-the same model and state stepped by one bare ``mj_step(model, data, nstep=steps)`` call
-(bonds registered, no Python per step, no compile) vs `simulate`'s total CPU time. And a
-population's throughput (evaluations/s) with 1 and 2 worker processes (`ProcessBackend`).
+model (`MODELS`: the default, where beam bonds, floor, self-collision and drag are one C loop
+and the native stepper integrates; the same stepped by ``mj_step``; 8 tendons per bond, with
+either stepper (with ``mj_step``: the default before #8); MuJoCo doing floor contacts,
+self-collision and drag; everything in MuJoCo, i.e. the exported MJCF with its tendons):
+median over `--repeats` full `simulate` calls (compile included) of CPU and wall seconds, µs
+per step, steps, and the ratio to the paper engine's optimised cost (0.0125·N CPU-s per
+0.55 s evaluation of N voxels, measured on this machine; <1 = faster). Our overhead: the
+same model and state advanced by one bare C call (the native stepper's, else
+``mj_step(model, data, nstep=steps)``; no Python per step, no compile, no checks) vs
+`simulate`'s total CPU time. And a population's throughput (evaluations/s) with 1 and 2
+worker processes (`ProcessBackend`).
 
-    /work/venv/bin/python benchmarks/speed.py [--repeats 3] [--models default tendon-bonds]
+    /work/venv/bin/python benchmarks/speed.py [--repeats 3] [--models default mj-step]
         [--robots slab_112 ...] [--json docs/performance.json] [--md docs/performance_results.md]
 """
 
@@ -41,9 +42,12 @@ VOXELYZE_CPU_S_PER_VOXEL = 0.0125  # optimised paper engine, per 0.55 s evaluati
 VOXELYZE_UNOPTIMISED = 0.087  # the paper's own binary
 MUJOCO_CONTACTS = {"contact_shape": "point"}  # MuJoCo point floor, collision spheres, viscosity
 TENDON_BONDS = {"bond_element": "tendons"}  # 8 tendons per bond (the default before #8)
+MJ_STEP = {"stepper": "mujoco"}  # the same physics stepped by mj_step (before the stepper)
 MODELS = {
     "default": {},
+    "mj-step": MJ_STEP,
     "tendon-bonds": TENDON_BONDS,
+    "tendon-bonds-mj-step": {**TENDON_BONDS, **MJ_STEP},  # the default before #8
     "mujoco-contacts": MUJOCO_CONTACTS,
     "tendon": {**MUJOCO_CONTACTS, **TENDON_BONDS, "bond_backend": "tendon"},
 }
@@ -74,10 +78,14 @@ def _evaluate(item: tuple[Robot, Physics]) -> float:
 
 
 def bare_cpu(robot: Robot, physics: Physics, steps: int) -> float:
-    """CPU s of one `mj_step(nstep=steps)` call on the simulated model (no compile)."""
+    """CPU s of one bare C call that makes all `steps` (the native stepper's, else
+    ``mj_step(nstep=steps)``) on the simulated model and state (no compile, no checks)."""
     sim = simulation_of(compile_robot(robot, physics=physics))
     start = time.process_time()
-    mujoco.mj_step(sim.model, sim.data, nstep=steps)
+    if sim.stepper is not None:
+        sim.stepper.step(steps)
+    else:
+        mujoco.mj_step(sim.model, sim.data, nstep=steps)
     return time.process_time() - start
 
 
@@ -113,7 +121,7 @@ def measure(name: str, robot: Robot, physics: Physics, repeats: int) -> dict:
             mujoco_only_us_per_step(robot, physics) for _ in range(repeats)),
         "us_per_voxel_step": cpu / steps / robot.n_voxels * 1e6,
         "compile_cpu_s": statistics.median(compile_cpu),
-        "bare_mj_step_cpu_s": bare, "overhead_vs_bare": cpu / bare - 1.0,
+        "bare_c_loop_cpu_s": bare, "overhead_vs_bare": cpu / bare - 1.0,
         "voxelyze_cpu_s": budget, "ratio_to_voxelyze": cpu / budget,
         "distance": runs[0].distance, "stable": runs[0].stable,
         "identical_repeats": len({r.distance for r in runs}) == 1,
@@ -138,18 +146,21 @@ def markdown(report: dict) -> str:
              f"{report['repeats']} runs; CPU s per evaluation (compile + 0.05 s settle + 0.5 s "
              "walk in 3D; 1 s + 0.25 s in 2D). Voxelyze = 0.0125·N CPU-s (optimised paper "
              "engine on this machine); ratio < 1 is faster.", "",
-             "µs/step MuJoCo: the same model stepped without our C loop (MuJoCo's own "
-             "kinematics, dynamics, integration; meaningful for models without MuJoCo contacts).",
+             "µs/step mj_step alone: the same model stepped by mj_step without our forces "
+             "(MuJoCo's own kinematics, dynamics, integration: what the native stepper "
+             "replaces; meaningful for models without MuJoCo contacts). Bare C loop: all steps "
+             "in one call (native stepper, else mj_step(nstep)); overhead = our CPU s (compile, "
+             "checks, Python) over it.",
              "",
-             "| robot | N | model | steps | µs/step | µs/step MuJoCo | µs/voxel/step | CPU s | "
-             "wall s | compile s | bare mj_step s | overhead | ratio to Voxelyze |",
+             "| robot | N | model | steps | µs/step | µs/step mj_step alone | µs/voxel/step | "
+             "CPU s | wall s | compile s | bare C loop s | overhead | ratio to Voxelyze |",
              "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for name, rows in report["robots"].items():
         for model, r in rows.items():
             lines.append(
                 f"| {name} | {r['voxels']} | {model} | {r['steps']} | {r['us_per_step']:.1f} "
                 f"| {r['mujoco_only_us_per_step']:.1f} | {r['us_per_voxel_step']:.2f} | {r['cpu_s']:.2f} | {r['wall_s']:.2f} | "
-                f"{r['compile_cpu_s']:.3f} | {r['bare_mj_step_cpu_s']:.2f} | "
+                f"{r['compile_cpu_s']:.3f} | {r['bare_c_loop_cpu_s']:.2f} | "
                 f"{100 * r['overhead_vs_bare']:+.1f} % | {r['ratio_to_voxelyze']:.2f} |")
     if report.get("population"):
         lines += ["", "Population throughput (" + report["population_robot"] + ", default):", "",
@@ -163,7 +174,7 @@ def markdown(report: dict) -> str:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--models", nargs="+", default=["default", "tendon-bonds"],
+    parser.add_argument("--models", nargs="+", default=["default", "mj-step"],
                         choices=sorted(MODELS))
     parser.add_argument("--robots", nargs="+", help="subset of robot names")
     parser.add_argument("--population", type=int, default=8,

@@ -80,8 +80,9 @@ class Simulation:
     `data` (registered until the `Simulation` is garbage-collected), the model is not
     modified, and `run` steps without Python in the loop. `stepper` is the
     `mjregen.stepping.NativeStepper` that advances `data` when `scene.stepper` allows and the
-    model qualifies, else None (``mj_step``); derived quantities (``xpos``, ``subtree_com``)
-    are then not updated by `run`: call ``mj_kinematics`` (as `com` does).
+    model qualifies, else None (``mj_step``); `run` then updates the positional and velocity
+    quantities (``xpos``, ``subtree_com``, ``cvel``) once at its end, for the final state
+    (``mj_step`` leaves those of the state before its last step).
 
     Args:
       model: the MuJoCo model.
@@ -199,6 +200,8 @@ class Simulation:
                     self.steps += done
                     return reason
             self.steps += n_steps
+            if self.stepper is not None:
+                self._kinematics()
             return ""
         for k in range(n_steps):
             if drive:
@@ -221,6 +224,14 @@ class Simulation:
                     return reason
         self.steps += n_steps
         return ""
+
+    def _kinematics(self) -> None:
+        """Positions, frames, centres of mass and their velocities (``xpos``, ``subtree_com``,
+        ``cvel``, ...) of the current state, which the native stepper does not compute; no
+        forces (the native floor's stick state is only advanced by steps)."""
+        mujoco.mj_kinematics(self.model, self.data)
+        mujoco.mj_comPos(self.model, self.data)
+        mujoco.mj_comVel(self.model, self.data)
 
     def check(self) -> str:
         """"" if the state is finite, warning-free and slower than RUNAWAY_SPEED."""

@@ -128,7 +128,8 @@ def test_native_needs_euler():
 def test_skipping_mujocos_contact_stages_changes_nothing():
     """The default model disables MuJoCo's collision and constraint stages (everything that
     touches is native): stepping with them enabled gives bit-identical states."""
-    compiled = compile_robot(Robot.load("assets/robots/paper/tripod.npy"))
+    compiled = compile_robot(Robot.load("assets/robots/paper/tripod.npy"),
+                             physics=Physics().replace_scene(stepper="mujoco"))
     assert compiled.native_model.opt.disableflags != 0
     fast = simulation_of(compiled)
     assert fast.run(3000) == ""
