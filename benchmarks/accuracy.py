@@ -30,6 +30,7 @@ instability that has not run away yet).
 
     /work/venv/bin/python benchmarks/accuracy.py accuracy --jobs 2 [--full-window] [--quick]
     /work/venv/bin/python benchmarks/accuracy.py stability --jobs 2 [--rule zeta] [--quick]
+        [--timestep-rule network]
     /work/venv/bin/python benchmarks/accuracy.py plot     # redraw the PNG from the CSV
 
 CPU time is the process CPU time of the stepping (compile excluded), one process per run.
@@ -566,6 +567,9 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--preset", default="default",
                         help="physics every case starts from: default = Physics(), or NAME "
                         "for mjregen.physics.NAME_physics() (e.g. paper)")
+    parser.add_argument("--timestep-rule", default="", choices=["", "network", "stiffest_bond"],
+                        help="Scene.timestep_rule of every case (default: the preset's); "
+                        "the output files get the rule as a suffix")
     parser.add_argument("--robots", default="", help="accuracy: comma-separated subset")
     parser.add_argument("--quick", action="store_true", help="small robots only")
     parser.add_argument("--from-log", action="store_true",
@@ -574,6 +578,9 @@ def main(argv: list[str] | None = None) -> None:
     args.out.mkdir(parents=True, exist_ok=True)
     BASE["physics"] = preset(args.preset)
     suffix = "" if args.preset == "default" else f"_{args.preset}"
+    if args.timestep_rule:
+        BASE["physics"] = BASE["physics"].replace_scene(timestep_rule=args.timestep_rule)
+        suffix += f"_{args.timestep_rule}"
     if args.study == "accuracy":
         jobs = accuracy_jobs(variants=tuple(args.variants.split(",")),
                              full_window=args.full_window, quick=args.quick)

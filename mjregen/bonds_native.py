@@ -160,6 +160,8 @@ def _load() -> ctypes.CDLL:
         library.mjr_step.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p,
                                      ctypes.c_int, ctypes.c_void_p]
         library.mjr_step.restype = ctypes.c_int
+        library.mjr_passive.argtypes = [ctypes.c_void_p, ctypes.c_void_p]
+        library.mjr_passive.restype = None
         library.mjr_step_refresh.argtypes = [ctypes.c_void_p, ctypes.c_void_p]
         library.mjr_step_refresh.restype = None
         current = mujoco.get_mjcb_passive()

@@ -331,6 +331,7 @@ def compile_robot(
     clamped: Iterable[Sequence[int]] = (),
     elevation: float = 0.0,
     _backend: str | None = None,
+    _timestep: float | None = None,
 ) -> CompiledRobot:
     """Build the MuJoCo model of `robot`.
 
@@ -506,7 +507,14 @@ def compile_robot(
         for k in range(len(weights)):
             spec.add_actuator(name=f"m{k}", trntype=mujoco.mjtTrn.mjTRN_TENDON, target=f"t{k}",
                               gainprm=[1.0] + [0.0] * 9)
-    spec.option.timestep = _mjcf(physics.timestep(max_k_per_m))
+    network_rule = scene.timestep_rule == "network" and bool(bonds) and _timestep is None
+    if network_rule and tendons:
+        # the rule needs the native forces: take the step of the same robot's native build
+        _timestep = compile_robot(robot, physics=physics, clamped=clamped_set,
+                                  elevation=elevation, _backend="native").timestep
+        network_rule = False
+    spec.option.timestep = _mjcf(physics.timestep(max_k_per_m)) if _timestep is None \
+        else _timestep
     if engine:
         spec.nuserdata = len(voxels)  # the floor's stick flags
         # floor, self-collision and drag are native: MuJoCo has no contact or constraint to
@@ -530,16 +538,25 @@ def compile_robot(
                                 voxel_size=L,
                                 damping=table.damping[: len(weights)].copy() if rate_drive
                                 else None)
+    body_ids = np.array([model.body(body.name).id for body in bodies])
+    if network_rule:
+        from mjregen.modes import network_rates, stable_step
+
+        rates = network_rates(model, beams if scene.bond_element == "beam" else table,
+                              voxel_bodies=body_ids, dim=dim, muscles=muscles, scene=scene)
+        model.opt.timestep = _mjcf(scene.timestep_safety * stable_step(*rates))
     lazy: dict = {"spec": spec, "model": model}
     if not tendons:
+        timestep = float(model.opt.timestep)
+
         def build_tendon_model() -> tuple[mujoco.MjSpec, mujoco.MjModel]:
             tendon = compile_robot(robot, physics=physics, clamped=clamped_set,
-                                   elevation=elevation, _backend="tendon")
+                                   elevation=elevation, _backend="tendon", _timestep=timestep)
             return tendon.spec, tendon.model
         lazy = {"build": build_tendon_model}
     return CompiledRobot(
         robot=robot, physics=physics, voxel_index=grid_index,
-        body_ids=np.array([model.body(body.name).id for body in bodies]),
+        body_ids=body_ids,
         masses=masses, muscles=muscles, n_bonds=len(bonds), bonds=table, beams=beams,
         bond_backend=backend, native_model=None if tendons else model,
         engine_contacts=_engine_contacts(physics, [m for _, m in voxels], masses, grid_index, surface,

@@ -31,6 +31,7 @@ CONTACT_SHAPES = ("box", "sphere", "point", "engine")
 BOND_BACKENDS = ("auto", "native", "tendon")
 BOND_ELEMENTS = ("beam", "tendons")
 STEPPERS = ("auto", "native", "mujoco")
+TIMESTEP_RULES = ("network", "stiffest_bond")
 MODE_RATIO = 2.7  # fastest bond-network mode / a Timoshenko bond's sqrt(k/m) (`Physics.timestep`)
 POINT_RADIUS = 1e-6  # contact_shape "point": radius of the centre sphere, in voxel lengths
 
@@ -217,6 +218,12 @@ class Scene:
         that MuJoCo has nothing to do but integrate) or "auto" (the default: native where
         the model qualifies, else ``mj_step``). Descriptions without this field (older runs
         and asset manifests) load as "mujoco", so they replay bit for bit.
+      timestep_rule: what `timestep_safety` is a fraction of: "stiffest_bond" (the stability
+        limit of a block of the robot's stiffest bond, the stiffest topology,
+        `Physics.timestep`) or "network" (the limit of the robot's own bond network, from
+        the largest eigenvalues of its linearised stiffness and damping, `mjregen.modes`:
+        the same step for blocks, 1.5–2.3× longer for the paper's robots; needs the native
+        library).
     """
 
     voxel_size: float = 1e-3
@@ -243,6 +250,7 @@ class Scene:
     bond_backend: str = "auto"
     bond_element: str = "beam"
     stepper: str = "auto"
+    timestep_rule: str = "stiffest_bond"
 
     def __post_init__(self) -> None:
         _check("voxel_size", self.voxel_size, low=0.0)
@@ -265,7 +273,8 @@ class Scene:
         _check("contact_damping", self.contact_damping, low=0.0, low_open=False)
         for name, allowed in (("bond_model", BOND_MODELS), ("contact_shape", CONTACT_SHAPES),
                               ("bond_backend", BOND_BACKENDS),
-                              ("bond_element", BOND_ELEMENTS), ("stepper", STEPPERS)):
+                              ("bond_element", BOND_ELEMENTS), ("stepper", STEPPERS),
+                              ("timestep_rule", TIMESTEP_RULES)):
             if getattr(self, name) not in allowed:
                 raise PhysicsParameterError(
                     f"{name} must be one of {allowed}, got {getattr(self, name)!r}")
@@ -357,6 +366,7 @@ class Physics:
             scene.setdefault("bond_element", "tendons")
             # ... and before the native stepper: mj_step (same motion to rounding)
             scene.setdefault("stepper", "mujoco")
+            scene.setdefault("timestep_rule", "stiffest_bond")  # ... and before "network"
             return cls(materials=materials, scene=Scene(**scene))
         except (KeyError, TypeError) as error:
             raise PhysicsParameterError(f"invalid physics description: {error}") from None

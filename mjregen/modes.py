@@ -1,0 +1,142 @@
+"""Fastest modes of a robot's bond network, for a time step fitted to the robot itself.
+
+Semi-implicit Euler on a mode x'' + c x' + ω² x = 0 is stable iff h²ω² + 2hc ≤ 4. For the
+whole robot, ω² ≤ λ = λ_max(M⁻¹K) and c ≤ μ = λ_max(M⁻¹C), with K and C the stiffness and
+damping of the bonds linearised at rest (C = βK per bond: the mode with the largest ω²
+also has the largest c when β is uniform), so the step
+
+    h = (√(μ² + 4λ) − μ) / λ
+
+is the limit of the robot's own network, where `Physics.timestep` assumes the stiffest
+topology (a block of its stiffest bond) for every robot.
+
+λ and μ are found by Lanczos iteration on the mass-weighted operators M^-½ K M^-½ and
+M^-½ C M^-½, applied matrix-free as central differences of the native bond forces
+(`mjregen.bonds_native`, the very forces the simulation integrates) about the rest state:
+K y from displacements (positions and rotations, through ``mj_integratePos``), C y from
+velocities. No floor or self-collision (the floor's penalty spring, 2·E·L per voxel, is
+small against a bond network's fastest modes) and no muscle actuation.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import math
+
+import mujoco
+import numpy as np
+
+from mjregen import bonds_native
+from mjregen.bonds_native import NativeBonds
+
+LANCZOS_STEPS = 40
+RELATIVE_PROBE = 1e-7  # largest probe displacement, in voxel lengths (or radians)
+
+
+class _NetworkForces:
+    """The bond forces ``(nv,)`` of a compiled robot at a given perturbation of its rest state."""
+
+    def __init__(self, model: mujoco.MjModel, bonds, *, voxel_bodies: np.ndarray, dim: int,
+                 muscles, scene) -> None:
+        self.model = model
+        self.data = mujoco.MjData(model)
+        bonds = NativeBonds(model, bonds, voxel_bodies=voxel_bodies, dim=dim, muscles=muscles,
+                            scene=scene, actuation_start=math.inf)
+        bonds.attach(self, self.data)
+        self._library = bonds_native.library()
+        self.q0 = model.qpos0.copy()
+        probe = mujoco.MjData(model)
+        ones = np.ones(model.nv)
+        self.mass = np.zeros(model.nv)
+        mujoco.mj_forward(model, probe)
+        mujoco.mj_mulM(model, probe, self.mass, ones)  # diagonal for voxel bodies
+        self.scale = 1.0 / np.sqrt(self.mass)  # mass-weighting S = M^-½
+        dof_length = np.ones(model.nv)  # m per unit of each dof (rad: one voxel length)
+        for joint in range(model.njnt):
+            kind, adr = model.jnt_type[joint], model.jnt_dofadr[joint]
+            if kind == mujoco.mjtJoint.mjJNT_FREE:
+                dof_length[adr + 3: adr + 6] = scene.voxel_size
+            elif kind == mujoco.mjtJoint.mjJNT_HINGE:
+                dof_length[adr] = scene.voxel_size
+        self.dof_length = dof_length
+        self.voxel_size = scene.voxel_size
+
+    def forces(self, qvel_step: np.ndarray, velocity: np.ndarray) -> np.ndarray:
+        """qfrc of the bonds at q0 ⊕ qvel_step (``mj_integratePos`` over 1 s), velocity."""
+        data = self.data
+        data.qpos[:] = self.q0
+        mujoco.mj_integratePos(self.model, data.qpos, qvel_step, 1.0)
+        data.qvel[:] = velocity
+        data.qfrc_passive[:] = 0.0
+        self._library.mjr_passive(self.model._address, data._address)
+        return data.qfrc_passive.copy()
+
+    def _epsilon(self, direction: np.ndarray) -> float:
+        """Step along M^-½ `direction` whose largest displacement is RELATIVE_PROBE·L."""
+        largest = float(np.max(np.abs(direction * self.scale) * self.dof_length))
+        return RELATIVE_PROBE * self.voxel_size / max(largest, 1e-300)
+
+    def stiffness(self, y: np.ndarray) -> np.ndarray:
+        """M^-½ K M^-½ y (s⁻²)."""
+        eps = self._epsilon(y)
+        step = eps * self.scale * y
+        zero = np.zeros_like(y)
+        df = self.forces(step, zero) - self.forces(-step, zero)
+        return -self.scale * df / (2.0 * eps)
+
+    def damping(self, y: np.ndarray) -> np.ndarray:
+        """M^-½ C M^-½ y (s⁻¹)."""
+        eps = self._epsilon(y)
+        velocity = eps * self.scale * y
+        zero = np.zeros_like(y)
+        df = self.forces(zero, velocity) - self.forces(zero, -velocity)
+        return -self.scale * df / (2.0 * eps)
+
+
+def largest_eigenvalue(apply, n: int, steps: int = LANCZOS_STEPS, seed: int = 0) -> float:
+    """Largest eigenvalue of a symmetric operator `apply` on R^n (Lanczos with full
+    reorthogonalisation, `steps` iterations, random start from `seed`)."""
+    if n == 0:
+        return 0.0
+    rng = np.random.default_rng(seed)
+    q = rng.standard_normal(n)
+    basis = [q / np.linalg.norm(q)]
+    alphas, betas = [], []
+    for k in range(min(steps, n)):
+        w = apply(basis[k])
+        alpha = float(basis[k] @ w)
+        alphas.append(alpha)
+        w = w - alpha * basis[k] - (betas[-1] * basis[k - 1] if k else 0.0)
+        stack = np.array(basis)
+        w -= stack.T @ (stack @ w)  # full reorthogonalisation
+        beta = float(np.linalg.norm(w))
+        if beta < 1e-12 * max(abs(alpha), 1e-300):
+            break
+        betas.append(beta)
+        basis.append(w / beta)
+    size = len(alphas)
+    tridiagonal = np.diag(alphas) + np.diag(betas[: size - 1], 1) + np.diag(betas[: size - 1], -1)
+    return float(np.max(np.linalg.eigvalsh(tridiagonal)))
+
+
+def network_rates(model: mujoco.MjModel, bonds, *, voxel_bodies: np.ndarray, dim: int,
+                  muscles, scene) -> tuple[float, float]:
+    """(λ s⁻², μ s⁻¹): the largest eigenvalues of M⁻¹K and M⁻¹C of the bond network.
+
+    Args:
+      model: the robot's model (its qpos0 is the rest state; MuJoCo tendons are ignored).
+      bonds: the `BondTable` or `BeamTable` the native loop computes the bonds from.
+      voxel_bodies, dim, muscles, scene: as for `NativeBonds`.
+    """
+    network = _NetworkForces(model, bonds, voxel_bodies=voxel_bodies, dim=dim,
+                             muscles=muscles, scene=scene)
+    n = network.model.nv
+    return (largest_eigenvalue(network.stiffness, n),
+            largest_eigenvalue(network.damping, n, seed=1))
+
+
+def stable_step(stiffness_rate: float, damping_rate: float) -> float:
+    """s: semi-implicit Euler's limit h with h²λ + 2hμ = 4."""
+    if stiffness_rate <= 0.0:
+        return math.inf if damping_rate <= 0.0 else 2.0 / damping_rate
+    return (math.sqrt(damping_rate ** 2 + 4.0 * stiffness_rate) - damping_rate) / stiffness_rate

@@ -1,0 +1,92 @@
+"""The bond network's fastest modes and the time step fitted to them (`mjregen.modes`)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mjregen import bonds_native
+from mjregen.compile import compile_robot
+from mjregen.grid import Material, Robot
+from mjregen.modes import largest_eigenvalue, network_rates, stable_step
+from mjregen.physics import Physics
+from mjregen.simulate import simulation_of
+
+pytestmark = pytest.mark.skipif(not bonds_native.available(),
+                                reason="no C compiler for the native backend")
+
+NETWORK = Physics().replace_scene(timestep_rule="network")
+
+
+def _rates(robot: Robot, physics: Physics) -> tuple[float, float]:
+    compiled = compile_robot(robot, physics=physics)
+    return network_rates(compiled.native_model, compiled.native_bonds,
+                         voxel_bodies=compiled.body_ids, dim=robot.dim,
+                         muscles=compiled.muscles, scene=physics.scene)
+
+
+@pytest.mark.parametrize("element", ["beam", "tendons"])
+@pytest.mark.parametrize("bond_model", ["euler_bernoulli", "timoshenko"])
+def test_two_voxels_fastest_mode_is_the_beam_theory_one(bond_model, element):
+    """Two free voxels (mass m, inertia mL²/6) on one bond: the shear mode (both voxels turn
+    by θ, their centres move apart sideways by Lθ/2: k_s (2u − Lθ)²/2 on masses 2m, 2I) has
+    ω² = 5 k_s/m, the axial mode 2 E L/m, torsion 4 G L/m (k_t = G L³/3), antisymmetric
+    bending E L/m. Shear-rigid bonds (k_s = E L): 5 E L/m is the fastest; Timoshenko
+    (k_s = G L, G = E/2(1+ν) = 0.37 E): the axial 2 E L/m is."""
+    physics = NETWORK.replace_scene(bond_model=bond_model, bond_element=element, floor=False)
+    hard = physics.materials[Material.HARD]
+    robot = Robot.from_body(np.full((2, 1, 1), Material.HARD, np.int8))
+    k_over_m = hard.youngs_modulus * physics.scene.voxel_size / physics.voxel_mass(Material.HARD)
+    expected = 5.0 * k_over_m if bond_model == "euler_bernoulli" else 2.0 * k_over_m
+    stiffness, damping = _rates(robot, physics)
+    assert stiffness == pytest.approx(expected, rel=1e-4)
+    # C = βK, β = 2ζ sqrt(m/(E L)): the fastest mode's damping rate is β λ
+    beta = 2.0 * physics.scene.bond_damping_ratio / np.sqrt(k_over_m)
+    assert damping == pytest.approx(beta * expected, rel=1e-4)
+
+
+def test_lanczos_finds_the_largest_eigenvalue():
+    rng = np.random.default_rng(3)
+    basis, _ = np.linalg.qr(rng.standard_normal((300, 300)))
+    values = np.concatenate([rng.uniform(0.0, 1.0, 299), [1.3]])
+    matrix = basis @ np.diag(values) @ basis.T
+    assert largest_eigenvalue(lambda y: matrix @ y, 300) == pytest.approx(1.3, rel=1e-6)
+
+
+def test_stable_step_is_semi_implicit_eulers_limit():
+    # undamped: h ω = 2; damped: h²λ + 2hμ = 4
+    assert stable_step(4.0, 0.0) == pytest.approx(1.0)
+    h = stable_step(1e8, 3e4)
+    assert h * h * 1e8 + 2 * h * 3e4 == pytest.approx(4.0)
+
+
+def test_network_step_is_where_a_kicked_block_diverges():
+    """A hard 3³ block, every voxel kicked: stable at 0.95 of the network's limit, diverges
+    at 1.05 of it (the limit is neither loose nor unsafe; measured: stable at 1.0, diverges
+    at 1.02, also for 4³, a two-voxel bar and a soft five-voxel rod)."""
+    robot = Robot.from_body(np.full((3, 3, 3), Material.HARD, np.int8))
+    outcomes = {}
+    for safety in (0.95, 1.05):
+        physics = NETWORK.replace_scene(timestep_safety=safety, floor=False, gravity=0.0)
+        sim = simulation_of(compile_robot(robot, physics=physics))
+        sim.data.qvel[:] = np.random.default_rng(0).normal(0.0, 0.01, sim.model.nv)  # m/s, rad/s
+        outcomes[safety] = sim.run(3000) == ""
+    assert outcomes == {0.95: True, 1.05: False}
+
+
+def test_network_rule_fits_the_step_to_the_robot():
+    """A block's network is as stiff as the stiffest-bond rule assumes: about the same step;
+    the paper's biped (hard voxels in thin legs) gets a longer one; a tendon-backend build
+    takes the native build's step."""
+    block = Robot.from_body(np.full((4, 4, 4), Material.HARD, np.int8))
+    biped = Robot.load("assets/robots/paper/biped.npy")
+    ratio = {name: compile_robot(robot, physics=NETWORK).timestep
+             / compile_robot(robot, physics=Physics()).timestep
+             for name, robot in (("block", block), ("biped", biped))}
+    assert 0.95 < ratio["block"] < 1.15
+    assert ratio["biped"] > 1.8
+    tendon = NETWORK.replace_scene(bond_element="tendons", bond_backend="tendon",
+                                   contact_shape="point")
+    native = tendon.replace_scene(bond_backend="native")
+    assert compile_robot(biped, physics=tendon).timestep == \
+        compile_robot(biped, physics=native).timestep
