@@ -86,7 +86,8 @@ class Run:
     """One evaluation: settle `settle` s, actuate `measured` s.
 
     dt: s, or None for the physics' automatic time step; integrator: a key of INTEGRATORS
-    with an optional "-mid" suffix, or None for the scene's.
+    with an optional "-mid" suffix, or None for the scene's; kick: m/s (rad/s), standard
+    deviation of random initial velocities of every dof (seed 0), to excite every mode.
     """
 
     robot: Robot
@@ -97,6 +98,7 @@ class Run:
     integrator: str | None = None
     elevation: float = 0.0
     clamped: tuple = ()
+    kick: float = 0.0
 
 
 def evaluate(run: Run) -> dict:
@@ -108,16 +110,28 @@ def evaluate(run: Run) -> dict:
     """
     compiled = compile_robot(run.robot, physics=run.physics, elevation=run.elevation,
                              clamped=run.clamped)
-    model = compiled.model
     name = run.integrator or run.physics.scene.integrator
+    # Euler runs what `simulate` runs (the native model: beam bonds, engine floor, native
+    # stepper); the other integrators need MuJoCo's own tendons and contacts (the exported
+    # MJCF model, `CompiledRobot.model`)
+    native = name == "euler" and compiled.native_model is not None
+    model = compiled.native_model if native else compiled.model
     midpoint = name.endswith("-mid")
     model.opt.integrator = INTEGRATORS[name.removesuffix("-mid")]
     if run.dt is not None:
         model.opt.timestep = run.dt
     dt = float(model.opt.timestep)
-    cls = MidpointSimulation if midpoint else Simulation
-    sim = cls(model, scene=run.physics.scene, muscles=compiled.muscles,
-              actuation_start=run.settle)
+    if native:
+        sim = Simulation(model, scene=run.physics.scene, muscles=compiled.muscles,
+                         actuation_start=run.settle, bonds=compiled.native_bonds,
+                         voxel_bodies=compiled.body_ids,
+                         engine_contacts=compiled.engine_contacts)
+    else:
+        cls = MidpointSimulation if midpoint else Simulation
+        sim = cls(model, scene=run.physics.scene, muscles=compiled.muscles,
+                  actuation_start=run.settle)
+    if run.kick:
+        sim.data.qvel[:] = np.random.default_rng(0).normal(0.0, run.kick, model.nv)
     n_settle, n_measure = round(run.settle / dt), round(run.measured / dt)
     cpu0 = time.process_time()
     reason = sim.run(n_settle)

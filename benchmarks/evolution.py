@@ -2,6 +2,7 @@
 evolution.
 
     python benchmarks/evolution.py backends [--pop 20] [--seed 0] [--bonds beam|tendons]
+        [--scene stepper=mujoco --scene timestep_rule=stiffest_bond]
         [--backends serial process thread] [--json out.json]
     python benchmarks/evolution.py short-run [--pop 20] [--gens 5] [--out runs/short3d]
 
@@ -30,7 +31,8 @@ from mjregen.runs import run_evolution
 
 
 def backends(args: argparse.Namespace) -> dict:
-    physics = Physics().replace_scene(bond_element=args.bonds)
+    overrides = dict(item.split("=", 1) for item in args.scene)
+    physics = Physics().replace_scene(bond_element=args.bonds, **overrides)
     task = LocomotionTask(nca=NCAConfig(dim=3, kind="ff"), physics=physics)
     genomes = random_genomes(task.nca, args.pop, seed=args.seed)
     rows, reference = [], None
@@ -54,7 +56,7 @@ def backends(args: argparse.Namespace) -> dict:
                                       if serial is not None else None)
         row["projected_paper_run_h"] = 100 * 300 / row["evals_per_s"] / 3600
     print(f"3D ff, population {args.pop} (seed {args.seed}), {args.bonds} bonds, "
-          f"{rows[0]['distinct_robots']} distinct robots")
+          f"scene {overrides or 'default'}, {rows[0]['distinct_robots']} distinct robots")
     print(f"{'backend':8s} {'wall s':>8s} {'sim cpu s':>9s} {'evals/s':>8s} {'efficiency':>10s} "
           f"{'paper run h':>11s}")
     for r in rows:
@@ -62,7 +64,8 @@ def backends(args: argparse.Namespace) -> dict:
         print(f"{r['backend']:8s} {r['wall_s']:8.1f} {r['simulation_cpu_s']:9.1f} {r['evals_per_s']:8.3f} "
               f"{'—' if efficiency is None else f'{efficiency:.2f}':>10s} "
               f"{r['projected_paper_run_h']:11.1f}")
-    return {"population": args.pop, "seed": args.seed, "bonds": args.bonds, "rows": rows}
+    return {"population": args.pop, "seed": args.seed, "bonds": args.bonds,
+            "scene": overrides, "rows": rows}
 
 
 def short_run(args: argparse.Namespace) -> dict:
@@ -87,6 +90,8 @@ def main() -> None:
     parser.add_argument("--out", default="runs/short3d")
     parser.add_argument("--bonds", choices=("beam", "tendons"), default="beam",
                         help="bond element (backends mode; default: the default, beam)")
+    parser.add_argument("--scene", action="append", default=[], metavar="KEY=VALUE",
+                        help="a string scene field (backends mode), e.g. stepper=mujoco")
     parser.add_argument("--backends", nargs="+", default=["serial", "process", "thread"],
                         choices=("serial", "process", "thread"),
                         help="backends to time (efficiency is relative to serial, if timed)")

@@ -40,8 +40,10 @@ Model, one code path for 2D and 3D:
   tendon forces (`CompiledRobot.bonds`, values rounded like the MJCF) from one C loop in
   MuJoCo's passive callback (`mjregen.bonds_native`); the tendon spec/model, still what
   `to_xml` exports, is then built on first access.
-- The time step comes from the stiffest bond (k_bond / lighter voxel's mass), or from the
-  stiffest voxel's E·L/m when the robot has no bonds (see `Physics.timestep`).
+- The time step is `Scene.timestep_safety` × semi-implicit Euler's stability limit of the
+  robot's own bond network (`mjregen.modes`, `Scene.timestep_rule` "network"), or of a
+  block of its stiffest bond ("stiffest_bond", `Physics.timestep`, also used for robots
+  without bonds: the stiffest voxel's E·L/m).
 """
 
 from __future__ import annotations
@@ -539,12 +541,18 @@ def compile_robot(
                                 damping=table.damping[: len(weights)].copy() if rate_drive
                                 else None)
     body_ids = np.array([model.body(body.name).id for body in bodies])
+    contacts = _engine_contacts(physics, [m for _, m in voxels], masses, grid_index, surface,
+                                viscosity) if engine else None
     if network_rule:
-        from mjregen.modes import network_rates, stable_step
+        from mjregen.modes import floor_rates, network_rates, stable_step, strain_stiffening
 
-        rates = network_rates(model, beams if scene.bond_element == "beam" else table,
-                              voxel_bodies=body_ids, dim=dim, muscles=muscles, scene=scene)
-        model.opt.timestep = _mjcf(scene.timestep_safety * stable_step(*rates))
+        stiffness, damping = network_rates(
+            model, beams if scene.bond_element == "beam" else table, voxel_bodies=body_ids,
+            dim=dim, muscles=muscles, scene=scene)
+        floor_stiffness, floor_damping = floor_rates(contacts)
+        stiffness = stiffness * strain_stiffening(beams, scene) + floor_stiffness
+        model.opt.timestep = _mjcf(scene.timestep_safety
+                                   * stable_step(stiffness, damping + floor_damping))
     lazy: dict = {"spec": spec, "model": model}
     if not tendons:
         timestep = float(model.opt.timestep)
@@ -559,8 +567,7 @@ def compile_robot(
         body_ids=body_ids,
         masses=masses, muscles=muscles, n_bonds=len(bonds), bonds=table, beams=beams,
         bond_backend=backend, native_model=None if tendons else model,
-        engine_contacts=_engine_contacts(physics, [m for _, m in voxels], masses, grid_index, surface,
-                                         viscosity) if engine else None,
+        engine_contacts=contacts,
         _tendon=lazy)
 
 

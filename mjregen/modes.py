@@ -14,8 +14,11 @@ topology (a block of its stiffest bond) for every robot.
 M^-½ C M^-½, applied matrix-free as central differences of the native bond forces
 (`mjregen.bonds_native`, the very forces the simulation integrates) about the rest state:
 K y from displacements (positions and rotations, through ``mj_integratePos``), C y from
-velocities. No floor or self-collision (the floor's penalty spring, 2·E·L per voxel, is
-small against a bond network's fastest modes) and no muscle actuation.
+velocities, without floor, self-collision or actuation. Two bounds then cover what the
+rest state leaves out (`compile_robot` applies them): bonds whose muscles lengthen them
+stiffen along their axis (`strain_stiffening`, a factor on λ: 1 for the paper's
+contract-only muscles, 1.59 at ±50 %), and a voxel touching the floor adds its penalty
+spring and damper (`floor_rates`, added to λ and μ: λ_max(A + B) ≤ λ_max(A) + λ_max(B)).
 """
 
 from __future__ import annotations
@@ -133,6 +136,37 @@ def network_rates(model: mujoco.MjModel, bonds, *, voxel_bodies: np.ndarray, dim
     n = network.model.nv
     return (largest_eigenvalue(network.stiffness, n),
             largest_eigenvalue(network.damping, n, seed=1))
+
+
+def strain_stiffening(beams, scene) -> float:
+    """Largest factor by which a bond's axial stiffness grows over the rest lengths its
+    muscles command (>= 1): the tendons' axial law k0 + kd l²/(l² + D²) stiffens as the rest
+    length l grows. "contract" muscles only shorten their bonds (softer): 1.
+
+    Args:
+      beams: the robot's `BeamTable` (its axial laws and muscle weights, either element).
+      scene: the `Scene` (voxel size, waveform).
+    """
+    driven = len(beams.muscle_weights)
+    if scene.waveform == "contract" or driven == 0:
+        return 1.0
+    length = scene.voxel_size
+    law = beams.axial_law[:driven]
+    longest = length * (1.0 + np.abs(beams.muscle_weights).sum(axis=1))
+
+    def tangent(rest: np.ndarray) -> np.ndarray:
+        return law[:, 0] + law[:, 1] * rest ** 2 / (rest ** 2 + law[:, 2])
+
+    return float(max(1.0, np.max(tangent(longest) / tangent(np.full(driven, length)))))
+
+
+def floor_rates(contacts) -> tuple[float, float]:
+    """(s⁻², s⁻¹): the engine floor's largest spring and damper per mass over the voxels
+    (what a touching voxel adds to the network's λ and μ), or (0, 0) without a floor."""
+    if contacts is None or not contacts.floor:
+        return 0.0, 0.0
+    return (float(np.max(contacts.stiffness / contacts.mass)),
+            float(np.max(contacts.damping / contacts.mass)))
 
 
 def stable_step(stiffness_rate: float, damping_rate: float) -> float:

@@ -146,9 +146,9 @@ class Scene:
       bond_damping_ratio: ζ of the bonds, relative to one voxel's mass (the paper's
         convention: c = 2 ζ sqrt(m k)).
       integrator: "euler" (MuJoCo's semi-implicit Euler) or "rk4".
-      timestep_safety: fraction of Euler's stability limit for the bond network
-        (`Physics.timestep`); the default 0.75 keeps a margin for topologies stiffer than
-        the blocks the limit was measured on.
+      timestep_safety: fraction of semi-implicit Euler's stability limit of the damped bond
+        network that the time step is (`timestep_rule` says which limit); the default 0.75
+        keeps a margin for what the linear limit leaves out (contacts, large strains).
       floor: whether the floor plane (z = 0) exists.
       contact_timeconst: s, MuJoCo solref time constant of voxel–floor contacts.
       contact_dampratio: MuJoCo solref damping ratio of voxel–floor contacts.
@@ -218,12 +218,14 @@ class Scene:
         that MuJoCo has nothing to do but integrate) or "auto" (the default: native where
         the model qualifies, else ``mj_step``). Descriptions without this field (older runs
         and asset manifests) load as "mujoco", so they replay bit for bit.
-      timestep_rule: what `timestep_safety` is a fraction of: "stiffest_bond" (the stability
-        limit of a block of the robot's stiffest bond, the stiffest topology,
-        `Physics.timestep`) or "network" (the limit of the robot's own bond network, from
-        the largest eigenvalues of its linearised stiffness and damping, `mjregen.modes`:
-        the same step for blocks, 1.5–2.3× longer for the paper's robots; needs the native
-        library).
+      timestep_rule: what `timestep_safety` is a fraction of: "network" (the default: the
+        limit of the robot's own bond network, from the largest eigenvalues of its
+        linearised stiffness and damping, `mjregen.modes`; exact for the linear network — a
+        kicked block runs at 1.0 of it and diverges at 1.02 —, about the old step for
+        blocks, 1.5–2.3× longer for the paper's robots; needs the native library) or
+        "stiffest_bond" (the limit of a block of the robot's stiffest bond, the stiffest
+        topology, `Physics.timestep`; the rule before issue #8, and what descriptions
+        without this field load as).
     """
 
     voxel_size: float = 1e-3
@@ -250,7 +252,7 @@ class Scene:
     bond_backend: str = "auto"
     bond_element: str = "beam"
     stepper: str = "auto"
-    timestep_rule: str = "stiffest_bond"
+    timestep_rule: str = "network"
 
     def __post_init__(self) -> None:
         _check("voxel_size", self.voxel_size, low=0.0)
@@ -382,8 +384,9 @@ class Physics:
         return self.materials[material].density * self.scene.voxel_size ** 3
 
     def timestep(self, stiffness_per_mass: float) -> float:
-        """Time step in s for the stiffest bond present: `timestep_safety` × the stability
-        limit of semi-implicit Euler for the bond network's fastest mode.
+        """Time step in s for the stiffest bond present (`Scene.timestep_rule`
+        "stiffest_bond", and robots without bonds): `timestep_safety` × the stability limit
+        of semi-implicit Euler for the fastest mode of a block of that bond.
 
         A bond of stiffness k between voxels of mass m has frequency ω_b = sqrt(k/m)
         (`stiffness_per_mass` = k/m in s⁻², the largest over the robot's bonds). The network's

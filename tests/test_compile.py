@@ -87,7 +87,7 @@ def test_bonds_start_unstressed():
 
 
 def test_timestep_from_stiffest_bond_present():
-    limit = Physics().replace_scene(timestep_safety=1.0)
+    limit = Physics().replace_scene(timestep_safety=1.0, timestep_rule="stiffest_bond")
     soft, hard, lone = (compile_robot(Robot.from_body(body.astype(np.int8)), physics=limit)
                         for body in (np.ones((2, 1, 1)), np.full((2, 1, 1), 2), np.ones((1, 1, 1))))
     # Euler's limit for shear-rigid bonds at ζ 0.4 (tests/test_physics_params.py):
@@ -95,8 +95,22 @@ def test_timestep_from_stiffest_bond_present():
     assert soft.timestep == pytest.approx(0.118271 / math.sqrt(1e7), rel=1e-4)
     assert hard.timestep == pytest.approx(soft.timestep / math.sqrt(5), rel=1e-4)
     assert lone.timestep == pytest.approx(soft.timestep, rel=1e-5)
-    default = compile_robot(Robot.from_body(np.ones((2, 1, 1), dtype=np.int8)))
+    default = compile_robot(Robot.from_body(np.ones((2, 1, 1), dtype=np.int8)),
+                            physics=limit.replace_scene(timestep_safety=0.75))
     assert default.timestep == pytest.approx(0.75 * soft.timestep, rel=1e-5)
+
+
+def test_default_timestep_is_075_of_the_networks_euler_limit():
+    """Two soft voxels: the network's fastest mode is the bond's shear mode, ω² = 5 E L/m,
+    with damping rate β ω² (β = 2ζ sqrt(m/(E L))), plus what a voxel on the floor adds (the
+    engine floor's spring 2 E L and damper 0.8·2 sqrt(m E L)); the step is 0.75 of Euler's
+    limit h, h² λ + 2 h μ = 4 (tests/test_modes.py)."""
+    k_over_m = 1e7 * 1e-3 / Physics().voxel_mass(1)
+    lam = 5.0 * k_over_m + 2.0 * k_over_m
+    mu = 2.0 * 0.4 / math.sqrt(k_over_m) * 5.0 * k_over_m + 0.8 * 2.0 * math.sqrt(k_over_m)
+    limit = (math.sqrt(mu * mu + 4.0 * lam) - mu) / lam
+    default = compile_robot(Robot.from_body(np.ones((2, 1, 1), dtype=np.int8)))
+    assert default.timestep == pytest.approx(0.75 * limit, rel=1e-5)
 
 
 def test_muscle_tendons_come_first_and_cover_exactly_the_muscle_bonds():

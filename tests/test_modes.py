@@ -8,7 +8,7 @@ import pytest
 from mjregen import bonds_native
 from mjregen.compile import compile_robot
 from mjregen.grid import Material, Robot
-from mjregen.modes import largest_eigenvalue, network_rates, stable_step
+from mjregen.modes import largest_eigenvalue, network_rates, stable_step, strain_stiffening
 from mjregen.physics import Physics
 from mjregen.simulate import simulation_of
 
@@ -16,6 +16,7 @@ pytestmark = pytest.mark.skipif(not bonds_native.available(),
                                 reason="no C compiler for the native backend")
 
 NETWORK = Physics().replace_scene(timestep_rule="network")
+STIFFEST_BOND = Physics().replace_scene(timestep_rule="stiffest_bond")
 
 
 def _rates(robot: Robot, physics: Physics) -> tuple[float, float]:
@@ -74,6 +75,28 @@ def test_network_step_is_where_a_kicked_block_diverges():
     assert outcomes == {0.95: True, 1.05: False}
 
 
+def test_lengthening_muscles_stiffen_their_bonds_contracting_ones_do_not():
+    """The axial law k0 + kd l²/(l² + D²) at the longest commanded rest length: a ±50 %
+    muscle bar stiffens by (1.5² (1 + D²/L²))/(1.5² + D²/L²) with the bonds' D² = 2 L²."""
+    robot = Robot.from_body(np.full((2, 1, 1), Material.MUSCLE_PLUS, np.int8))
+    beams = compile_robot(robot).beams
+    assert beams.axial_law[0, 2] == pytest.approx(2e-6)  # m², D² = 2 L²
+    physics = Physics()
+    plus = physics.materials[Material.MUSCLE_PLUS]
+    symmetric = physics.replace_scene(waveform="symmetric")
+    assert strain_stiffening(beams, physics.scene) == 1.0  # contract-only: shorter, softer
+    extension = 1.0 + plus.strain_amplitude  # both voxels lengthen the bond
+    expected = extension ** 2 * 3.0 / (extension ** 2 + 2.0)
+    assert strain_stiffening(beams, symmetric.scene) == pytest.approx(expected, rel=1e-12)
+
+
+def test_network_rule_is_the_default():
+    assert Physics().scene.timestep_rule == "network"
+    old = Physics().to_dict()
+    del old["scene"]["timestep_rule"]  # written before the rule existed
+    assert Physics.from_dict(old).scene.timestep_rule == "stiffest_bond"
+
+
 def test_network_rule_fits_the_step_to_the_robot():
     """A block's network is as stiff as the stiffest-bond rule assumes: about the same step;
     the paper's biped (hard voxels in thin legs) gets a longer one; a tendon-backend build
@@ -81,10 +104,10 @@ def test_network_rule_fits_the_step_to_the_robot():
     block = Robot.from_body(np.full((4, 4, 4), Material.HARD, np.int8))
     biped = Robot.load("assets/robots/paper/biped.npy")
     ratio = {name: compile_robot(robot, physics=NETWORK).timestep
-             / compile_robot(robot, physics=Physics()).timestep
+             / compile_robot(robot, physics=STIFFEST_BOND).timestep
              for name, robot in (("block", block), ("biped", biped))}
     assert 0.95 < ratio["block"] < 1.15
-    assert ratio["biped"] > 1.8
+    assert ratio["biped"] > 1.6
     tendon = NETWORK.replace_scene(bond_element="tendons", bond_backend="tendon",
                                    contact_shape="point")
     native = tendon.replace_scene(bond_backend="native")
