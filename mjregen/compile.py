@@ -550,9 +550,9 @@ def compile_robot(
             model, beams if scene.bond_element == "beam" else table, voxel_bodies=body_ids,
             dim=dim, muscles=muscles, scene=scene)
         floor_stiffness, floor_damping = floor_rates(contacts)
-        stiffness = stiffness * strain_stiffening(beams, scene) + floor_stiffness
-        model.opt.timestep = _mjcf(scene.timestep_safety
-                                   * stable_step(stiffness, damping + floor_damping))
+        stiffening = strain_stiffening(beams, scene)
+        model.opt.timestep = _mjcf(scene.timestep_safety * stable_step(
+            stiffening * stiffness + floor_stiffness, stiffening * damping + floor_damping))
     lazy: dict = {"spec": spec, "model": model}
     if not tendons:
         timestep = float(model.opt.timestep)

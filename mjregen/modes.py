@@ -16,8 +16,8 @@ M^-½ C M^-½, applied matrix-free as central differences of the native bond for
 K y from displacements (positions and rotations, through ``mj_integratePos``), C y from
 velocities, without floor, self-collision or actuation. Two bounds then cover what the
 rest state leaves out (`compile_robot` applies them): bonds whose muscles lengthen them
-stiffen along their axis (`strain_stiffening`, a factor on λ: 1 for the paper's
-contract-only muscles, 1.59 at ±50 %), and a voxel touching the floor adds its penalty
+stiffen (`strain_stiffening`, a factor on λ and μ: 1 for the paper's contract-only
+muscles, 1.75 at ±50 %), and a voxel touching the floor adds its penalty
 spring and damper (`floor_rates`, added to λ and μ: λ_max(A + B) ≤ λ_max(A) + λ_max(B)).
 """
 
@@ -139,9 +139,12 @@ def network_rates(model: mujoco.MjModel, bonds, *, voxel_bodies: np.ndarray, dim
 
 
 def strain_stiffening(beams, scene) -> float:
-    """Largest factor by which a bond's axial stiffness grows over the rest lengths its
-    muscles command (>= 1): the tendons' axial law k0 + kd l²/(l² + D²) stiffens as the rest
-    length l grows. "contract" muscles only shorten their bonds (softer): 1.
+    """Largest factor by which a bond's modes stiffen over the rest lengths l its muscles
+    command (>= 1). Two effects: the tendons' axial law k0 + kd l²/(l² + D²) stiffens
+    along the axis, and the shear mode of two voxels (both turn by θ, their centres shift
+    sideways by lθ/2) has ω² = k_s (2 + 3 (l/L)²)/m, 5 k_s/m at rest: the lever arm grows
+    with l while the voxels' inertia does not. The damping (C = βK) stiffens alike.
+    "contract" muscles only shorten their bonds (softer): 1.
 
     Args:
       beams: the robot's `BeamTable` (its axial laws and muscle weights, either element).
@@ -157,7 +160,9 @@ def strain_stiffening(beams, scene) -> float:
     def tangent(rest: np.ndarray) -> np.ndarray:
         return law[:, 0] + law[:, 1] * rest ** 2 / (rest ** 2 + law[:, 2])
 
-    return float(max(1.0, np.max(tangent(longest) / tangent(np.full(driven, length)))))
+    axial = tangent(longest) / tangent(np.full(driven, length))
+    shear = (2.0 + 3.0 * (longest / length) ** 2) / 5.0
+    return float(max(1.0, np.max(axial), np.max(shear)))
 
 
 def floor_rates(contacts) -> tuple[float, float]:
