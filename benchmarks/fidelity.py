@@ -11,6 +11,11 @@ and `docs/fidelity_*.png`, and the numbers to a JSON file.
 `--scene` overrides scene fields (JSON values: `--scene bond_damping_ratio=0.5`), and
 `--friction 1.0` sets every material's friction: this is how the ablations in
 docs/fidelity.md were measured. Without `--doc` nothing is written but the table.
+
+`--spread 0.5,0.55,...` instead walks each paper robot once per time-step safety (slightly
+different integrations of the same physics: the gaits are chaotic) and prints the
+distances, their median and range, and the median's ratio to the engine's distance
+(`--jobs 2` runs them on two processes).
 """
 
 from __future__ import annotations
@@ -122,6 +127,36 @@ def plot(result: CaseResult, reference: Path, out: Path) -> Path | None:
     return path
 
 
+def _walk(item: tuple[str, Physics, float]) -> tuple[str, float, float]:
+    from mjregen.grid import Robot
+    from mjregen.simulate import simulate
+
+    name, physics, safety = item
+    robot = Robot(np.load(ROOT / "assets" / "robots" / "paper" / f"{name}.npy"))
+    result = simulate(robot, physics=physics.replace_scene(timestep_safety=safety))
+    return name, safety, result.distance
+
+
+def spread(physics: Physics, safeties: list[float], jobs: int) -> str:
+    """Markdown table: each paper robot's distance at each safety, median, range, ratio."""
+    import multiprocessing
+
+    items = [(name, physics, s) for name in ROBOT_FILES for s in safeties]
+    with multiprocessing.get_context("fork").Pool(jobs) as pool:
+        walked = pool.map(_walk, items)
+    lines = ["| robot | " + " | ".join(f"{s:g}" for s in safeties)
+             + " | median | range | engine | median / engine |",
+             "|---" * (len(safeties) + 6) + "|"]
+    for name in ROBOT_FILES:
+        distances = [d for n, _, d in walked if n == name]
+        median = float(np.median(distances))
+        engine = REFERENCE[name]["distance"]
+        lines.append(f"| {name} | " + " | ".join(f"{d:.1f}" for d in distances)
+                     + f" | {median:.1f} | {min(distances):.1f}–{max(distances):.1f} | "
+                     f"{engine:.2f} | {median / engine:.2f} |")
+    return "\n".join(lines)
+
+
 def markdown_table(all_rows: list[tuple]) -> str:
     lines = ["| case | measure | paper engine | mjregen | ratio |", "|---|---|---|---|---|"]
     for case, measure, ref, ours, unit in all_rows:
@@ -141,8 +176,13 @@ def main() -> None:
     parser.add_argument("--doc", type=Path, default=None, help="write the table + plots here")
     parser.add_argument("--json", type=Path, default=None)
     parser.add_argument("--no-plots", action="store_true")
+    parser.add_argument("--spread", default="", help="comma-separated time-step safeties")
+    parser.add_argument("--jobs", type=int, default=1, help="processes for --spread")
     args = parser.parse_args()
     physics = physics_from_args(args)
+    if args.spread:
+        print(spread(physics, [float(s) for s in args.spread.split(",")], args.jobs))
+        return
     all_rows, results = [], {}
     for name in args.cases.split(","):
         cpu0 = time.process_time()

@@ -2,9 +2,11 @@
 
 For each robot of a fixed set (2D 5×5, 3D 112-voxel slab with and without hard voxels, the
 7×7×7 block, the paper's biped/tripod/multiped, the shipped evolved 3D walkers) and each
-model (`MODELS`: the default, where beam bonds, floor, self-collision and drag are one C loop
-and the native stepper integrates; the same stepped by ``mj_step``; 8 tendons per bond, with
-either stepper (with ``mj_step``: the default before #8); MuJoCo doing floor contacts,
+model (`MODELS`: the default, where beam bonds, floor, self-collision and drag are one C loop,
+the native stepper integrates and the time step is the robot's own network's; the same with
+the stiffest-bond time-step rule; that stepped by ``mj_step`` (the default before session
+4); 8 tendons per bond, with either stepper (with ``mj_step``: the default before #8);
+MuJoCo doing floor contacts,
 self-collision and drag; everything in MuJoCo, i.e. the exported MJCF with its tendons):
 median over `--repeats` full `simulate` calls (compile included) of CPU and wall seconds, µs
 per step, steps, and the ratio to the paper engine's optimised cost (0.0125·N CPU-s per
@@ -14,7 +16,7 @@ same model and state advanced by one bare C call (the native stepper's, else
 `simulate`'s total CPU time. And a population's throughput (evaluations/s) with 1 and 2
 worker processes (`ProcessBackend`).
 
-    /work/venv/bin/python benchmarks/speed.py [--repeats 3] [--models default mj-step]
+    /work/venv/bin/python benchmarks/speed.py [--repeats 3] [--models default stiffest-bond mj-step]
         [--robots slab_112 ...] [--json docs/performance.json] [--md docs/performance_results.md]
 """
 
@@ -42,9 +44,11 @@ VOXELYZE_CPU_S_PER_VOXEL = 0.0125  # optimised paper engine, per 0.55 s evaluati
 VOXELYZE_UNOPTIMISED = 0.087  # the paper's own binary
 MUJOCO_CONTACTS = {"contact_shape": "point"}  # MuJoCo point floor, collision spheres, viscosity
 TENDON_BONDS = {"bond_element": "tendons"}  # 8 tendons per bond (the default before #8)
-MJ_STEP = {"stepper": "mujoco"}  # the same physics stepped by mj_step (before the stepper)
+STIFFEST_BOND = {"timestep_rule": "stiffest_bond"}  # the time-step rule before the network's
+MJ_STEP = {"stepper": "mujoco", **STIFFEST_BOND}  # the default at the start of session 4
 MODELS = {
     "default": {},
+    "stiffest-bond": STIFFEST_BOND,
     "mj-step": MJ_STEP,
     "tendon-bonds": TENDON_BONDS,
     "tendon-bonds-mj-step": {**TENDON_BONDS, **MJ_STEP},  # the default before #8
@@ -174,7 +178,7 @@ def markdown(report: dict) -> str:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--models", nargs="+", default=["default", "mj-step"],
+    parser.add_argument("--models", nargs="+", default=["default", "stiffest-bond", "mj-step"],
                         choices=sorted(MODELS))
     parser.add_argument("--robots", nargs="+", help="subset of robot names")
     parser.add_argument("--population", type=int, default=8,
