@@ -19,7 +19,7 @@ Two studies (issue #7), each written to ``docs/`` as CSV plus a Markdown table o
 ``stability``: for each case (stiffness ×1…×1000 of the hard material, muscle strain up to
   ±50 %, bond damping ratio 0.05…2, full 7×7×7 blocks of each material, a single voxel, a
   one-voxel tower, a clamped cantilever, a drop from 5 voxel lengths, all-muscle blocks in
-  phase), whether the automatic time step (``Scene.timestep_safety`` default) is stable, and
+  phase, blocks kicked with random 1 mm/s velocities), whether the automatic time step (``Scene.timestep_safety`` default) is stable, and
   the largest stable ``timestep_safety`` found by bracketing and geometric bisection; with
   ``--rule zeta`` the candidate rule safety × min(1, 1/ζ) is checked as well.
   Writes ``accuracy_stability.csv``.
@@ -496,6 +496,12 @@ def stability_cases(quick: bool = False) -> list[Case]:
     cases.append(Case("muscle+ block 4^3 50% symmetric", Run(
         block(4, 3), Physics(materials=muscle_strain(0.5),
                              scene=replace(paper.scene, waveform="symmetric")), **short)))
+    # resting blocks are symmetric and stay unexcited; kicked ones show the network's limit
+    for code in (Material.SOFT, Material.HARD):
+        cases.append(Case(f"block 4^3 {code.name.lower()} kicked 1 mm/s", Run(
+            block(4, code), paper, kick=1e-3, **short)))
+    cases.append(Case("mixed block 5^3 kicked 1 mm/s", Run(zeta_robot, paper, kick=1e-3,
+                                                          **short)))
     cases.append(Case("biped", Run(paper_robot("biped"), paper, **short)))
     cases.append(Case("2D sheet", Run(sheet_2d(), paper, settle=0.2, measured=0.1)))
     if quick:
