@@ -511,6 +511,13 @@ def compile_robot(
                               gainprm=[1.0] + [0.0] * 9)
     network_rule = scene.timestep_rule == "network" and bool(bonds) and _timestep is None
     if network_rule and tendons:
+        from mjregen import bonds_native
+
+        if not bonds_native.available():
+            raise PhysicsParameterError(
+                "timestep_rule 'network' computes the step from the native bond forces, which "
+                "need a C compiler; use timestep_rule 'stiffest_bond' (sphere_physics() and "
+                "legacy_physics() do)")
         # the rule needs the native forces: take the step of the same robot's native build
         _timestep = compile_robot(robot, physics=physics, clamped=clamped_set,
                                   elevation=elevation, _backend="native").timestep

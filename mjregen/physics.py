@@ -440,18 +440,20 @@ def paper_physics() -> Physics:
 def sphere_physics() -> Physics:
     """The first `paper_physics` (before the engine floor): MuJoCo sphere contacts (one per
     voxel, spring 2·E·L, damping 1.2 because MuJoCo's contact cannot pull), friction 1.0,
-    Timoshenko tendon bonds, ζ 0.4, drag 0.001, no self-collision; works with the tendon
-    backend."""
+    Timoshenko tendon bonds, ζ 0.4, drag 0.001, no self-collision, the stiffest-bond time
+    step; works with the tendon backend (no C compiler needed)."""
     materials = {m: replace(p, friction=1.0) for m, p in paper_materials().items()}
     return Physics(materials=materials, scene=Scene(
         contact_shape="sphere", contact_stiffness=2.0, contact_damping=1.2,
-        bond_damping_ratio=0.4, drag_ratio=0.001, bond_element="tendons"))
+        bond_damping_ratio=0.4, drag_ratio=0.001, bond_element="tendons",
+        timestep_rule="stiffest_bond"))
 
 
 def legacy_physics() -> Physics:
     """The physics before the fidelity study (issue #10): box contacts solref (0.3 ms, 1),
-    friction 0.5, bond damping ratio 1, no drag, no self-collision, tendon bonds."""
+    friction 0.5, bond damping ratio 1, no drag, no self-collision, tendon bonds, the
+    stiffest-bond time step."""
     materials = {m: replace(p, friction=0.5) for m, p in paper_materials().items()}
     return Physics(materials=materials, scene=Scene(
         contact_shape="box", contact_stiffness=None, bond_damping_ratio=1.0, drag_ratio=0.0,
-        self_collision=False, bond_element="tendons"))
+        self_collision=False, bond_element="tendons", timestep_rule="stiffest_bond"))

@@ -116,3 +116,19 @@ def test_network_rule_fits_the_step_to_the_robot():
     native = tendon.replace_scene(bond_backend="native")
     assert compile_robot(biped, physics=tendon).timestep == \
         compile_robot(biped, physics=native).timestep
+
+
+def test_without_a_compiler_the_network_rule_says_so_and_the_mujoco_presets_still_run(
+        monkeypatch):
+    from mjregen.physics import PhysicsParameterError, sphere_physics
+
+    monkeypatch.setattr(bonds_native, "available", lambda: False)
+    robot = Robot.from_body(np.full((2, 2, 2), Material.SOFT, np.int8))
+    tendon = NETWORK.replace_scene(bond_element="tendons", bond_backend="tendon",
+                                   contact_shape="point")
+    with pytest.raises(PhysicsParameterError, match="stiffest_bond"):
+        compile_robot(robot, physics=tendon)
+    physics = sphere_physics()  # MuJoCo tendons and contacts, the stiffest-bond step
+    assert compile_robot(robot, physics=physics.replace_scene(bond_backend="tendon")).timestep \
+        == pytest.approx(physics.timestep(1e7 * 1e-3 / physics.voxel_mass(Material.SOFT)),
+                         rel=1e-5)
