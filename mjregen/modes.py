@@ -23,7 +23,6 @@ spring and damper (`floor_rates`, added to λ and μ: λ_max(A + B) ≤ λ_max(A
 
 from __future__ import annotations
 
-import ctypes
 import math
 
 import mujoco

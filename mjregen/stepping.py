@@ -73,8 +73,8 @@ def unsupported(model: mujoco.MjModel) -> str:
         (np.any(model.body_gravcomp != 0.0), "a body has gravity compensation"),
         (np.any(model.dof_damping != 0.0) or np.any(model.dof_armature != 0.0)
          or np.any(model.dof_frictionloss != 0.0) or np.any(model.jnt_stiffness != 0.0)
-         or np.any(model.jnt_limited), "a joint has damping, armature, friction, a spring "
-         "or a limit"),
+         or np.any(model.jnt_limited),
+         "a joint has damping, armature, friction, a spring or a limit"),
     ]
     for failed, reason in checks:
         if failed:

@@ -8,7 +8,12 @@ import pytest
 from mjregen import bonds_native
 from mjregen.compile import compile_robot
 from mjregen.grid import Material, Robot
-from mjregen.modes import largest_eigenvalue, network_rates, stable_step, strain_stiffening
+from mjregen.modes import (
+    largest_eigenvalue,
+    network_rates,
+    stable_step,
+    strain_stiffening,
+)
 from mjregen.physics import Physics
 from mjregen.simulate import simulation_of
 
