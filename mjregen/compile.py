@@ -551,15 +551,14 @@ def compile_robot(
     contacts = _engine_contacts(physics, [m for _, m in voxels], masses, grid_index, surface,
                                 viscosity) if engine else None
     if network_rule:
-        from mjregen.modes import floor_rates, network_rates, stable_step, strain_stiffening
+        from mjregen.modes import network_rates, stable_step, strain_stiffening
 
         stiffness, damping = network_rates(
             model, beams if scene.bond_element == "beam" else table, voxel_bodies=body_ids,
-            dim=dim, muscles=muscles, scene=scene)
-        floor_stiffness, floor_damping = floor_rates(contacts)
+            dim=dim, muscles=muscles, scene=scene, floor=contacts)
         stiffening = strain_stiffening(beams, scene)
         model.opt.timestep = _mjcf(scene.timestep_safety * stable_step(
-            stiffening * stiffness + floor_stiffness, stiffening * damping + floor_damping))
+            stiffening * stiffness, stiffening * damping))
     lazy: dict = {"spec": spec, "model": model}
     if not tendons:
         timestep = float(model.opt.timestep)

@@ -14,11 +14,11 @@ topology (a block of its stiffest bond) for every robot.
 M^-½ C M^-½, applied matrix-free as central differences of the native bond forces
 (`mjregen.bonds_native`, the very forces the simulation integrates) about the rest state:
 K y from displacements (positions and rotations, through ``mj_integratePos``), C y from
-velocities, without floor, self-collision or actuation. Two bounds then cover what the
-rest state leaves out (`compile_robot` applies them): bonds whose muscles lengthen them
-stiffen (`strain_stiffening`, a factor on λ and μ: 1 for the paper's contract-only
-muscles, 1.75 at ±50 %), and a voxel touching the floor adds its penalty
-spring and damper (`floor_rates`, added to λ and μ: λ_max(A + B) ≤ λ_max(A) + λ_max(B)).
+velocities, without self-collision or actuation. The engine floor is included as if every
+voxel touched it (its penalty spring and damper on each voxel's vertical motion: the most
+any posture can add). Bonds whose muscles lengthen them stiffen, which the rest state
+leaves out: `strain_stiffening` bounds that (a factor on λ and μ that `compile_robot`
+applies: 1 for the paper's contract-only muscles, 1.75 at ±50 %).
 """
 
 from __future__ import annotations
@@ -39,7 +39,7 @@ class _NetworkForces:
     """The bond forces ``(nv,)`` of a compiled robot at a given perturbation of its rest state."""
 
     def __init__(self, model: mujoco.MjModel, bonds, *, voxel_bodies: np.ndarray, dim: int,
-                 muscles, scene) -> None:
+                 muscles, scene, floor=None) -> None:
         self.model = model
         self.data = mujoco.MjData(model)
         bonds = NativeBonds(model, bonds, voxel_bodies=voxel_bodies, dim=dim, muscles=muscles,
@@ -62,6 +62,16 @@ class _NetworkForces:
                 dof_length[adr] = scene.voxel_size
         self.dof_length = dof_length
         self.voxel_size = scene.voxel_size
+        # the floor on every voxel's vertical dof, per mass (s⁻², s⁻¹)
+        self.floor_k = np.zeros(model.nv)
+        self.floor_c = np.zeros(model.nv)
+        if floor is not None and floor.floor:
+            for voxel, body in enumerate(voxel_bodies):
+                if model.body_jntnum[body] == 0:
+                    continue
+                vertical = model.jnt_dofadr[model.body_jntadr[body]] + (2 if dim == 3 else 1)
+                self.floor_k[vertical] = floor.stiffness[voxel] / floor.mass[voxel]
+                self.floor_c[vertical] = floor.damping[voxel] / floor.mass[voxel]
 
     def forces(self, qvel_step: np.ndarray, velocity: np.ndarray) -> np.ndarray:
         """qfrc of the bonds at q0 ⊕ qvel_step (``mj_integratePos`` over 1 s), velocity."""
@@ -84,7 +94,7 @@ class _NetworkForces:
         step = eps * self.scale * y
         zero = np.zeros_like(y)
         df = self.forces(step, zero) - self.forces(-step, zero)
-        return -self.scale * df / (2.0 * eps)
+        return -self.scale * df / (2.0 * eps) + self.floor_k * y
 
     def damping(self, y: np.ndarray) -> np.ndarray:
         """M^-½ C M^-½ y (s⁻¹)."""
@@ -92,7 +102,7 @@ class _NetworkForces:
         velocity = eps * self.scale * y
         zero = np.zeros_like(y)
         df = self.forces(zero, velocity) - self.forces(zero, -velocity)
-        return -self.scale * df / (2.0 * eps)
+        return -self.scale * df / (2.0 * eps) + self.floor_c * y
 
 
 def largest_eigenvalue(apply, n: int, steps: int = LANCZOS_STEPS, seed: int = 0) -> float:
@@ -110,7 +120,8 @@ def largest_eigenvalue(apply, n: int, steps: int = LANCZOS_STEPS, seed: int = 0)
         alphas.append(alpha)
         w = w - alpha * basis[k] - (betas[-1] * basis[k - 1] if k else 0.0)
         stack = np.array(basis)
-        w -= stack.T @ (stack @ w)  # full reorthogonalisation
+        # full reorthogonalisation (einsum, not BLAS: OpenBLAS's threads would spin on)
+        w -= np.einsum("kn,k->n", stack, np.einsum("kn,n->k", stack, w))
         beta = float(np.linalg.norm(w))
         if beta < 1e-12 * max(abs(alpha), 1e-300):
             break
@@ -122,16 +133,17 @@ def largest_eigenvalue(apply, n: int, steps: int = LANCZOS_STEPS, seed: int = 0)
 
 
 def network_rates(model: mujoco.MjModel, bonds, *, voxel_bodies: np.ndarray, dim: int,
-                  muscles, scene) -> tuple[float, float]:
+                  muscles, scene, floor=None) -> tuple[float, float]:
     """(λ s⁻², μ s⁻¹): the largest eigenvalues of M⁻¹K and M⁻¹C of the bond network.
 
     Args:
       model: the robot's model (its qpos0 is the rest state; MuJoCo tendons are ignored).
       bonds: the `BondTable` or `BeamTable` the native loop computes the bonds from.
       voxel_bodies, dim, muscles, scene: as for `NativeBonds`.
+      floor: the robot's `EngineContacts` (its floor acts on every voxel), or None.
     """
     network = _NetworkForces(model, bonds, voxel_bodies=voxel_bodies, dim=dim,
-                             muscles=muscles, scene=scene)
+                             muscles=muscles, scene=scene, floor=floor)
     n = network.model.nv
     return (largest_eigenvalue(network.stiffness, n),
             largest_eigenvalue(network.damping, n, seed=1))
@@ -162,15 +174,6 @@ def strain_stiffening(beams, scene) -> float:
     axial = tangent(longest) / tangent(np.full(driven, length))
     shear = (2.0 + 3.0 * (longest / length) ** 2) / 5.0
     return float(max(1.0, np.max(axial), np.max(shear)))
-
-
-def floor_rates(contacts) -> tuple[float, float]:
-    """(s⁻², s⁻¹): the engine floor's largest spring and damper per mass over the voxels
-    (what a touching voxel adds to the network's λ and μ), or (0, 0) without a floor."""
-    if contacts is None or not contacts.floor:
-        return 0.0, 0.0
-    return (float(np.max(contacts.stiffness / contacts.mass)),
-            float(np.max(contacts.damping / contacts.mass)))
 
 
 def stable_step(stiffness_rate: float, damping_rate: float) -> float:

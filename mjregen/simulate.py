@@ -236,9 +236,10 @@ class Simulation:
     def check(self) -> str:
         """"" if the state is finite, warning-free and slower than RUNAWAY_SPEED."""
         data = self.data
-        for name, warning in WARNINGS:
-            if data.warning[warning].number > 0:
-                return f"MuJoCo warning {name}"
+        if np.any(data.warning.number):
+            for name, warning in WARNINGS:
+                if data.warning[warning].number > 0:
+                    return f"MuJoCo warning {name}"
         if not (np.all(np.isfinite(data.qpos)) and np.all(np.isfinite(data.qvel))):
             return "NaN or infinite state"
         if data.qvel.size and np.max(np.abs(data.qvel) * self._inv_limit) > 1.0:

@@ -101,13 +101,20 @@ def test_timestep_from_stiffest_bond_present():
 
 
 def test_default_timestep_is_075_of_the_networks_euler_limit():
-    """Two soft voxels: the network's fastest mode is the bond's shear mode, ω² = 5 E L/m,
-    with damping rate β ω² (β = 2ζ sqrt(m/(E L))), plus what a voxel on the floor adds (the
-    engine floor's spring 2 E L and damper 0.8·2 sqrt(m E L)); the step is 0.75 of Euler's
-    limit h, h² λ + 2 h μ = 4 (tests/test_modes.py)."""
-    k_over_m = 1e7 * 1e-3 / Physics().voxel_mass(1)
-    lam = 5.0 * k_over_m + 2.0 * k_over_m
-    mu = 2.0 * 0.4 / math.sqrt(k_over_m) * 5.0 * k_over_m + 0.8 * 2.0 * math.sqrt(k_over_m)
+    """Two soft voxels on the floor. In the horizontal plane the bond's shear mode has
+    ω² = 5 E L/m (tests/test_modes.py). In the vertical plane the floor (the engine's spring
+    2 E L and damper 0.8·2 sqrt(m E L) on each voxel's vertical motion) joins it: with u the
+    voxels' opposite vertical shift and θ their common turn, K = E L [[4 + 4, −2L], [−2L,
+    L²]] on masses 2m, 2I = mL²/3, and C = β K_bond + floor. The step is 0.75 of Euler's
+    limit h, h² λ + 2 h μ = 4, with λ, μ the largest eigenvalues of M⁻¹K, M⁻¹C."""
+    w2 = 1e7 * 1e-3 / Physics().voxel_mass(1)  # E L / m, s⁻²
+    beta = 2.0 * 0.4 / math.sqrt(w2)  # s: C = βK for the bond
+    inv_mass = np.diag([1.0 / 2.0, 3.0])  # 1/(2m), 1/(2I) in units of m = 1, L = 1
+    bond = np.array([[4.0, -2.0], [-2.0, 1.0]]) * w2
+    floor_k = np.diag([2.0 * 2.0 * w2, 0.0])  # two voxels' springs on u
+    floor_c = np.diag([2.0 * 0.8 * 2.0 * math.sqrt(w2), 0.0])
+    lam = max(5.0 * w2, max(np.linalg.eigvals(inv_mass @ (bond + floor_k)).real))
+    mu = max(5.0 * beta * w2, max(np.linalg.eigvals(inv_mass @ (beta * bond + floor_c)).real))
     limit = (math.sqrt(mu * mu + 4.0 * lam) - mu) / lam
     default = compile_robot(Robot.from_body(np.ones((2, 1, 1), dtype=np.int8)))
     assert default.timestep == pytest.approx(0.75 * limit, rel=1e-5)

@@ -77,10 +77,20 @@ static void quat_integrate(double* q, const double* w, double scale) {
     axis[1] = w[1] / norm;
     axis[2] = w[2] / norm;
   }
-  double angle = scale * norm, r[4] = {1.0, 0.0, 0.0, 0.0};
-  if (angle != 0.0) {
-    double sn = sin(0.5 * angle);
-    r[0] = cos(0.5 * angle);
+  double half = 0.5 * scale * norm, r[4] = {1.0, 0.0, 0.0, 0.0};
+  if (half != 0.0) {
+    double sn, cs;
+    if (fabs(half) < 0.05) {
+      /* a step's turn is tiny: Taylor series, exact to rounding here (next terms < 1e-20) */
+      double x2 = half * half;
+      sn = half * (1.0 - x2 / 6.0 * (1.0 - x2 / 20.0 * (1.0 - x2 / 42.0 * (1.0 - x2 / 72.0))));
+      cs = 1.0 - x2 / 2.0 * (1.0 - x2 / 12.0 * (1.0 - x2 / 30.0 * (1.0 - x2 / 56.0
+                                                                   * (1.0 - x2 / 90.0))));
+    } else {
+      sn = sin(half);
+      cs = cos(half);
+    }
+    r[0] = cs;
     r[1] = axis[0] * sn;
     r[2] = axis[1] * sn;
     r[3] = axis[2] * sn;
@@ -156,9 +166,7 @@ int mjr_step(const mjModel* m, mjData* d, const mjrStepper* s, int nstep, double
         return k;
       }
       d->qacc[i] = acc;
-    }
-    for (int i = 0; i < nv; i++) {
-      d->qvel[i] += dt * d->qacc[i];
+      d->qvel[i] += dt * acc;
       if (bad(d->qvel[i])) {
         warn(d, mjWARN_BADQVEL, i);
         return k;
