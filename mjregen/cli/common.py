@@ -56,7 +56,7 @@ def add_physics_choice(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--bonds", choices=("tendons", "beam"),
                         help="bond element: 'beam' (the default: one beam element per "
                              "bond) or 'tendons' (8 tendons per bond, the model before issue "
-                             "#8, ~1.6x the CPU time; docs/performance.md)")
+                             "#8, ~2x the CPU time; docs/performance.md)")
     parser.set_defaults(settle=None)
 
 
