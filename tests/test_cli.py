@@ -125,6 +125,22 @@ def test_walk_with_tendon_or_beam_bonds(capsys):
     assert json.loads(capsys.readouterr().out)["distance"] == tendons.distance
 
 
+def test_walk_with_either_timestep_rule(capsys):
+    from mjregen.physics import Physics
+    from mjregen.simulate import simulate
+
+    steps = {}
+    for rule in ("network", "stiffest_bond"):
+        assert main(["walk", WALKER, "--timestep-rule", rule, "--settle", "0.01",
+                     "--duration", "0.03", "--json"]) == 0
+        report = json.loads(capsys.readouterr().out)
+        physics = Physics().replace_scene(settle_time=0.01, timestep_rule=rule)
+        expected = simulate(Robot.load(WALKER), physics=physics, duration=0.03)
+        assert report["distance"] == expected.distance
+        steps[rule] = report["steps"]
+    assert steps["network"] < steps["stiffest_bond"]  # the robot's own limit is looser
+
+
 def test_export_writes_mjcf_that_plain_mujoco_loads(tmp_path, capsys):
     import mujoco
 

@@ -41,6 +41,9 @@ def test_evolve_writes_a_run_and_resume_with_no_flags(tmp_path, capsys):
     assert "--physics sphere" in capsys.readouterr().err
     assert main(["evolve", "--out", str(out), "--resume", "--bonds", "tendons", "--quiet"]) == 1
     assert "--bonds tendons (run has beam)" in capsys.readouterr().err
+    assert main(["evolve", "--out", str(out), "--resume", "--timestep-rule", "stiffest_bond",
+                 "--quiet"]) == 1
+    assert "--timestep-rule stiffest_bond (run has network)" in capsys.readouterr().err
     assert main(["evolve", *TINY, "--gens", "2", "--out", str(out)]) == 1
     assert "not empty" in capsys.readouterr().err
 

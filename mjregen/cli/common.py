@@ -57,6 +57,12 @@ def add_physics_choice(parser: argparse.ArgumentParser) -> None:
                         help="bond element: 'beam' (the default: one beam element per "
                              "bond) or 'tendons' (8 tendons per bond, the model before issue "
                              "#8, ~2x the CPU time; docs/performance.md)")
+    parser.add_argument("--timestep-rule", choices=("network", "stiffest_bond"),
+                        help="time step: 0.75 of Euler's stability limit of the robot's own "
+                             "bond network ('network', the default) or of a block of its "
+                             "stiffest bond ('stiffest_bond': the rule before issue #8, "
+                             "smaller integration errors at 1.1-2.2x the CPU time; "
+                             "docs/accuracy.md)")
     parser.set_defaults(settle=None)
 
 
@@ -77,4 +83,6 @@ def physics_from_args(args: argparse.Namespace):
     physics = presets.get(args.physics, Physics)()
     if args.bonds is not None:
         physics = physics.replace_scene(bond_element=args.bonds)
+    if args.timestep_rule is not None:
+        physics = physics.replace_scene(timestep_rule=args.timestep_rule)
     return physics if args.settle is None else physics.replace_scene(settle_time=args.settle)
