@@ -15,7 +15,7 @@ with ``mj_step``). Each `NativeStepper.step` call reads the masses, inertias, gr
 time step from the model (so changing them between calls acts as in MuJoCo); on creation
 the stepper checks that these give MuJoCo's own mass matrix and gravity force. It does not
 update derived quantities (``xpos``, ``subtree_com``, ...): call ``mj_kinematics`` after
-stepping, as `Simulation.com` does. ``qfrc_applied`` is applied; ``xfrc_applied`` is not
+stepping, as `Simulation.run` does. ``qfrc_applied`` is applied; ``xfrc_applied`` is not
 (`NativeStepper.step` refuses a non-zero one).
 """
 

@@ -17,7 +17,8 @@
    generic pipeline (kinematics, composite inertia, factorisation, RNE) is skipped, about
    half of a step's cost. Like mj_step it stops on a bad acceleration or velocity (NaN or
    above 1e10) and records MuJoCo's warning in d->warning. Derived quantities (xpos,
-   subtree_com, ...) are not updated: call mj_forward or mj_kinematics after stepping.
+   subtree_com, ...) are not updated: call mj_kinematics after stepping (not mj_forward: it
+   would run the passive callback, whose floor keeps a stick state that only steps advance).
 */
 #include <math.h>
 #include <string.h>
