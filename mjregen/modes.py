@@ -30,6 +30,7 @@ import numpy as np
 
 from mjregen import bonds_native
 from mjregen.bonds_native import NativeBonds
+from mjregen.simulate import rotational_dofs
 
 LANCZOS_STEPS = 40
 RELATIVE_PROBE = 1e-7  # largest probe displacement, in voxel lengths (or radians)
@@ -47,20 +48,12 @@ class _NetworkForces:
         bonds.attach(self, self.data)
         self._library = bonds_native.library()
         self.q0 = model.qpos0.copy()
-        probe = mujoco.MjData(model)
-        ones = np.ones(model.nv)
         self.mass = np.zeros(model.nv)
-        mujoco.mj_forward(model, probe)
-        mujoco.mj_mulM(model, probe, self.mass, ones)  # diagonal for voxel bodies
+        mujoco.mj_forward(model, self.data)  # the mass matrix (no floor, no actuation here)
+        mujoco.mj_mulM(model, self.data, self.mass, np.ones(model.nv))  # diagonal for voxels
         self.scale = 1.0 / np.sqrt(self.mass)  # mass-weighting S = M^-½
-        dof_length = np.ones(model.nv)  # m per unit of each dof (rad: one voxel length)
-        for joint in range(model.njnt):
-            kind, adr = model.jnt_type[joint], model.jnt_dofadr[joint]
-            if kind == mujoco.mjtJoint.mjJNT_FREE:
-                dof_length[adr + 3: adr + 6] = scene.voxel_size
-            elif kind == mujoco.mjtJoint.mjJNT_HINGE:
-                dof_length[adr] = scene.voxel_size
-        self.dof_length = dof_length
+        # m per unit of each dof (a radian: one voxel length)
+        self.dof_length = np.where(rotational_dofs(model), scene.voxel_size, 1.0)
         self.voxel_size = scene.voxel_size
         # the floor on every voxel's vertical dof, per mass (s⁻², s⁻¹)
         self.floor_k = np.zeros(model.nv)

@@ -144,12 +144,8 @@ class Simulation:
                 self._plus_c = muscles.damping * self._plus
                 self._minus_c = muscles.damping * self._minus
         self.stepper = _stepper_for(model, self.data, scene, self.native)
-        dof_speed = np.ones(model.nv)  # 1/(m/s) for slides, L/(m/s) for rotations
-        dof_speed[model.jnt_dofadr[model.jnt_type == mujoco.mjtJoint.mjJNT_HINGE]] = 0.0
-        for adr in model.jnt_dofadr[model.jnt_type == mujoco.mjtJoint.mjJNT_FREE]:
-            dof_speed[adr + 3: adr + 6] = 0.0
-        voxel = scene.voxel_size
-        self._inv_limit = np.where(dof_speed > 0, 1.0, voxel) / (RUNAWAY_SPEED * voxel)
+        voxel = scene.voxel_size  # a rotation's speed limit: RUNAWAY_SPEED·L per L
+        self._inv_limit = np.where(rotational_dofs(model), voxel, 1.0) / (RUNAWAY_SPEED * voxel)
 
     def strains(self, t: float) -> tuple[float, float]:
         """Signed strains (e₊, e₋) of the two muscle phases at time `t` (s)."""
@@ -251,6 +247,16 @@ class Simulation:
         mujoco.mj_kinematics(self.model, self.data)
         mujoco.mj_comPos(self.model, self.data)
         return self.data.subtree_com[0].copy()
+
+
+def rotational_dofs(model: mujoco.MjModel) -> np.ndarray:
+    """``(nv,)`` bool: the dofs that turn a body (hinges, free joints' last three), not
+    slide it."""
+    rotational = np.zeros(model.nv, dtype=bool)
+    rotational[model.jnt_dofadr[model.jnt_type == mujoco.mjtJoint.mjJNT_HINGE]] = True
+    for adr in model.jnt_dofadr[model.jnt_type == mujoco.mjtJoint.mjJNT_FREE]:
+        rotational[adr + 3: adr + 6] = True
+    return rotational
 
 
 def _stepper_for(model: mujoco.MjModel, data: mujoco.MjData, scene: Scene,
