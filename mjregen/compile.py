@@ -1,14 +1,29 @@
-"""Robot grid + physics -> MuJoCo model (`MjSpec` -> `MjModel`), and MJCF export.
+"""Robot grid + physics -> one MuJoCo model (`MjSpec` -> `MjModel`): what `simulate` runs and
+what `to_xml` exports.
 
-Model, one code path for 2D and 3D:
+One code path for 2D and 3D. Every voxel is a body ``voxel_<x>_<y>_<z>`` (2D:
+``voxel_<x>_<z>``) with a box geom of edge L, mass density·L³ and the material of its voxel
+(``soft``, ``hard``, ``muscle_plus``, ``muscle_minus``); in 3D it has a free joint, in 2D it
+moves in the x–z plane (slide x, slide z, hinge y). Clamped voxels get no joint (welded to
+the world). The robot starts with its lowest voxel's bottom face at z = `elevation` and its
+centre of mass at x = y = 0. Face neighbours are bonded. There are two pipelines, chosen by
+the scene (`pipeline_of`):
 
-- Every voxel is a body with a box geom of edge L and mass density·L³ (cube inertia). In 3D it
-  has a free joint; in 2D it moves in the x–z plane (slide x, slide z, hinge y). Clamped
-  voxels get no joint (welded to the world). The robot starts with its lowest voxel's bottom
-  face at z = `elevation` and its centre of mass at x = y = 0.
-- Each pair of face neighbours is bonded by spatial tendons between sites fixed in the two
-  bodies, from one voxel centre's cross-section to the other's (length ≈ L, never zero).
-  For a bond along axis x with lateral axes P (one in 2D, two in 3D):
+- ``"voxel"`` (``contact_shape="engine"``, the default): the model carries one instance of
+  the engine plugin ``mjregen.voxels`` (`mjregen.physics.native`), whose configuration
+  holds everything its forces need — the voxels (body names, muscle phases and strains),
+  the bonds (voxel pairs, axes, stiffness, damping, muscle weights), the floor, self-
+  collision and drag — and which adds them all in MuJoCo's passive stage. The muscles start
+  at the end of the settle (``start``) and are in the file: plain MuJoCo with the plugin
+  library loaded walks the robot with ``mj_step`` alone. MuJoCo's own contacts and
+  constraints are disabled (nothing for them to do).
+- ``"mujoco"`` (any other contact shape): pure MuJoCo, no C compiler needed: each bond is
+  spatial tendons between sites fixed in the two bodies, contacts are MuJoCo's, and the
+  muscles' tendons (the first ``muscles.count``) have their rest lengths rewritten every
+  step by `mjregen.simulate.Simulation` (MuJoCo has no built-in time-dependent drive).
+
+Bond mechanics (both pipelines). For a bond along axis x with lateral axes P (one in 2D,
+two in 3D), the tendon bundle is:
 
   * diagonals: for each lateral axis q and each offset ±a along the other lateral axes
     (none in 2D), a crossed pair from −b to +b along q (and +b to −b), each of stiffness
@@ -22,51 +37,61 @@ Model, one code path for 2D and 3D:
   the 3D bond exact with k_ax = 0 (8 tendons), and the same b with a = L/√6 makes the 2D
   bond exact with k_ax = E·L/2 (2 axial + 2 diagonal tendons). E and G of a bond are the
   two voxels' half-lengths in series (2 E₁E₂/(E₁+E₂)); so every material of a robot must
-  share one Poisson ratio.
-- Bond damping is stiffness-proportional: each tendon's damping = its stiffness ×
-  2ζ sqrt(m/k_bond) with m the mean voxel mass, i.e. c = 2ζ sqrt(m k) axially (the paper
-  engine's convention).
-- Muscles: a bond's axial rest length is L·(s₁+s₂)/2 with sᵢ the voxels' linear scales;
-  each tendon of the bond gets the rest length sqrt((L s̄)² + d²), d its fixed lateral
-  extent, so the bond is unstressed at centre distance L s̄ (scaling the whole tendon
-  length would over-contract bonds whose diagonals cannot shrink sideways). The tendons
-  of bonds touching a muscle come first in the model; `simulate` rewrites their
-  `tendon_lengthspring` every step (`MuscleTendons`). The geom boxes keep size L.
-- Contacts: only voxel–floor pairs (all geoms have contype = conaffinity = 0), with the
-  scene's solref/solimp set on the pair, so MuJoCo's metre-scale defaults never mix in.
-- Bond backends (`Scene.bond_backend`): "tendon" compiles the tendons above into the
-  model; "native" compiles the same bodies, joints and contact pairs without sites,
-  tendons or actuators (`CompiledRobot.native_model`) and `simulate` adds the very same
-  tendon forces (`CompiledRobot.bonds`, values rounded like the MJCF) from one C loop in
-  MuJoCo's passive callback (`mjregen.bonds_native`); the tendon spec/model, still what
-  `to_xml` exports, is then built on first access.
+  share one Poisson ratio. The voxel plugin computes either these tendons
+  (``bond_element="tendons"``) or one co-rotated beam element per bond with the same linear
+  stiffness (``"beam"``, `BeamTable`).
+- Bond damping is stiffness-proportional: c = 2ζ sqrt(m k) with m the mean voxel mass (the
+  paper engine's convention).
+- Muscles: a bond's axial rest length is L·(s₁+s₂)/2 with sᵢ the voxels' linear scales; each
+  tendon gets the rest length sqrt((L s̄)² + d²), d its fixed lateral extent. Bonds touching
+  a muscle come first. The geom boxes keep size L.
 - The time step is `Scene.timestep_safety` × semi-implicit Euler's stability limit of the
-  robot's own bond network (`mjregen.modes`, `Scene.timestep_rule` "network"), or of a
-  block of its stiffest bond ("stiffest_bond", `Physics.timestep`, also used for robots
-  without bonds: the stiffest voxel's E·L/m).
+  robot's own bond network (`mjregen.modes`, ``timestep_rule="network"``), or of a block of
+  its stiffest bond (``"stiffest_bond"``, `Physics.timestep`, also for robots without
+  bonds); it is decided here once and stored in the model (``opt.timestep``) only.
 """
 
 from __future__ import annotations
 
 import itertools
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Iterable, Sequence
 
 import mujoco
 import numpy as np
 
+from mjregen import modes
 from mjregen.errors import MjregenError
 from mjregen.grid import Material, Robot
 from mjregen.physics import POINT_RADIUS, Physics, PhysicsParameterError
+from mjregen.physics import native
 
 WORLD_AXES = {2: (0, 2), 3: (0, 1, 2)}  # grid axis -> world axis
 FLOOR = "floor"
 POINT_FLOOR = "floor_centres"  # contact_shape "point": the plane that voxel centres touch
+PLUGIN_INSTANCE = "robot"  # the voxel plugin's instance name in the model
+MATERIAL_NAMES = {Material.SOFT: "soft", Material.HARD: "hard",
+                  Material.MUSCLE_PLUS: "muscle_plus", Material.MUSCLE_MINUS: "muscle_minus"}
+MATERIAL_RGBA = {Material.SOFT: (0.0, 0.7, 1.0, 1.0), Material.HARD: (0.0, 0.0, 1.0, 1.0),
+                 Material.MUSCLE_PLUS: (1.0, 0.0, 0.0, 1.0),
+                 Material.MUSCLE_MINUS: (0.0, 0.8, 0.0, 1.0)}  # the paper's colours
+DRIVES = ("waveform", "ctrl")
 
 
 class CompileError(MjregenError, ValueError):
     """A robot cannot be compiled with the given options (e.g. empty, bad clamp index)."""
+
+
+def pipeline_of(scene) -> str:
+    """"voxel" (the voxel plugin: contact_shape "engine") or "mujoco" (MuJoCo tendons and
+    contacts)."""
+    return "voxel" if scene.contact_shape == "engine" else "mujoco"
+
+
+def voxel_name(index: Sequence[int]) -> str:
+    """Body name of the voxel at grid `index`: ``voxel_<x>_<y>_<z>`` (2D ``voxel_<x>_<z>``)."""
+    return "voxel_" + "_".join(str(int(k)) for k in index)
 
 
 @dataclass(frozen=True)
@@ -81,16 +106,11 @@ class MuscleTendons:
         each of the bond's voxels in that phase, summed.
       lateral: ``(count,)`` float, m, the tendon's fixed lateral extent d.
       voxel_size: L in m.
-      damping: ``(count,)`` float, N·s/m, the tendons' damping c when the model has one
-        actuator per driven tendon (actuator k on tendon k, gain 1) through which
-        `Simulation` adds c·dl₀/dt, so the damper acts on d(l − l₀)/dt (scene
-        `damp_strain_rate`); None otherwise.
     """
 
     weights: np.ndarray
     lateral: np.ndarray
     voxel_size: float
-    damping: np.ndarray | None = None
 
     @property
     def count(self) -> int:
@@ -99,10 +119,9 @@ class MuscleTendons:
 
 @dataclass(frozen=True)
 class BondTable:
-    """Every bond tendon of a robot as arrays (the native bond backend's input).
-
-    Values are the ones the tendon model gets (rounded like MJCF), so both backends compute
-    the same forces. Driven tendons (`MuscleTendons`) are rows ``0 .. muscles.count-1``.
+    """Every bond tendon of a robot as arrays (the "mujoco" pipeline's tendons, and the voxel
+    plugin's with ``bond_element="tendons"``): the same values, rounded like MJCF, in both.
+    Driven tendons (`MuscleTendons`) are rows ``0 .. muscles.count-1``.
 
     Attributes:
       ends: ``(n, 2)`` int, the voxels (body order) of the tendon's two sites.
@@ -110,6 +129,8 @@ class BondTable:
       stiffness: ``(n,)`` N/m.
       damping: ``(n,)`` N·s/m.
       rest: ``(n,)`` m, the rest length without actuation.
+      bond: ``(n,)`` int, the bond (`BeamTable` row) each tendon belongs to.
+      lateral: ``(n,)`` m, the tendon's lateral extent d between its sites.
     """
 
     ends: np.ndarray
@@ -117,6 +138,8 @@ class BondTable:
     stiffness: np.ndarray
     damping: np.ndarray
     rest: np.ndarray
+    bond: np.ndarray
+    lateral: np.ndarray
 
     @property
     def count(self) -> int:
@@ -159,94 +182,29 @@ class BeamTable:
 
 
 @dataclass(frozen=True)
-class EngineContacts:
-    """What the native loop computes besides the bonds with `Scene.contact_shape` "engine":
-    the paper engine's floor, its self-collision and its drag (voxels in body order).
-
-    Attributes (``(n_voxels,)`` float unless stated):
-      stiffness: N/m, floor penalty spring contact_stiffness·E·L (self-collision: the
-        harmonic mean of the two voxels').
-      damping: N·s/m, contact_damping·2 sqrt(m E L) (likewise).
-      static_friction, kinetic_friction: floor friction coefficients.
-      mass: kg.
-      half_plus, half_minus: m, L/2 × the voxel's muscle strain amplitude if it is a "+" /
-        "−" muscle (its half size is L/2 + half_plus·e₊ + half_minus·e₋), else 0.
-      floor: whether the floor exists.
-      grid_index: ``(n_voxels, 3)`` int, grid indices (2D: z in the last column).
-      surface: ``(n_voxels,)`` bool, voxels that self-collide (a face neighbour missing).
-      collision_radius: m, self-collision sphere radius at nominal size; 0 = off.
-      drag_linear: N·s/m, drag on each centre (MuJoCo's Stokes drag of a cube, 3π L μ).
-      drag_rotational: N·m·s, its rotational part (π L³ μ).
-    """
-
-    stiffness: np.ndarray
-    damping: np.ndarray
-    static_friction: np.ndarray
-    kinetic_friction: np.ndarray
-    mass: np.ndarray
-    half_plus: np.ndarray
-    half_minus: np.ndarray
-    floor: bool
-    grid_index: np.ndarray
-    surface: np.ndarray
-    collision_radius: float
-    drag_linear: float
-    drag_rotational: float
-
-
-def _engine_contacts(physics: Physics, materials: list[Material], masses: np.ndarray,
-                  grid_index: np.ndarray, surface: np.ndarray, viscosity: float) -> EngineContacts:
-    """`EngineContacts` of voxels with these materials, masses and grid places."""
-    scene = physics.scene
-    L = scene.voxel_size
-    props = [physics.materials[m] for m in materials]
-    EL = np.array([p.youngs_modulus * L for p in props])
-    amplitude = np.array([0.5 * L * p.strain_amplitude for p in props])
-    sign = np.array([p.phase_sign for p in props])
-    index3 = np.zeros((len(materials), 3), dtype=np.int32)
-    index3[:, 3 - grid_index.shape[1]:] = grid_index
-    return EngineContacts(
-        stiffness=scene.contact_stiffness * EL,
-        damping=scene.contact_damping * 2.0 * np.sqrt(masses * EL),
-        static_friction=np.array([p.friction for p in props], dtype=float),
-        kinetic_friction=np.array([p.friction if p.kinetic_friction is None
-                                   else p.kinetic_friction for p in props], dtype=float),
-        mass=np.asarray(masses, dtype=float),
-        half_plus=np.where(sign > 0, amplitude, 0.0),
-        half_minus=np.where(sign < 0, amplitude, 0.0),
-        floor=scene.floor, grid_index=index3, surface=np.asarray(surface, dtype=bool),
-        collision_radius=scene.collision_radius * L if scene.self_collision else 0.0,
-        drag_linear=3.0 * math.pi * L * viscosity, drag_rotational=math.pi * L**3 * viscosity)
-
-
-@dataclass(frozen=True)
 class CompiledRobot:
     """A robot compiled to MuJoCo.
 
     Attributes:
       robot, physics: what was compiled.
-      spec: the `mujoco.MjSpec` of the tendon model (owns the exported MJCF).
-      model: the compiled tendon model `mujoco.MjModel` (bonds as spatial tendons).
+      pipeline: "voxel" or "mujoco" (module docstring).
+      spec: the `mujoco.MjSpec` the model was compiled from (`to_xml` writes it).
+      model: the `mujoco.MjModel` that `simulate` runs.
       voxel_index: ``(n_voxels, dim)`` int grid indices, in body order.
-      body_ids: ``(n_voxels,)`` int MuJoCo body ids of the voxels (same in both models).
+      body_ids: ``(n_voxels,)`` int MuJoCo body ids of the voxels.
       masses: ``(n_voxels,)`` float, kg.
-      muscles: the driven tendons, or None when the robot has no muscles.
+      muscles: the "mujoco" pipeline's driven tendons (`Simulation` rewrites their rest
+        lengths), or None (no muscles, or the voxel plugin drives them).
       n_bonds: number of face bonds.
       bonds: every bond tendon as arrays (`BondTable`).
       beams: every bond as one beam element (`BeamTable`).
-      bond_backend: "tendon" or "native", the backend `simulation_of` uses (the scene's
-        `bond_backend` resolved).
-      native_model: with the native backend, the model that `simulation_of` steps: the same
-        bodies, joints and contacts without sites, tendons or actuators (bond forces come
-        from `mjregen.bonds_native`); None with the tendon backend.
-      engine_contacts: with contact_shape "engine" (native backend), what the native loop computes
-        besides the bonds: floor, self-collision, drag (`EngineContacts`); else None.
-
-    With the native backend the tendon `spec` and `model` are built on first access.
     """
 
     robot: Robot
     physics: Physics
+    pipeline: str
+    spec: mujoco.MjSpec
+    model: mujoco.MjModel
     voxel_index: np.ndarray
     body_ids: np.ndarray
     masses: np.ndarray
@@ -254,65 +212,20 @@ class CompiledRobot:
     n_bonds: int
     bonds: BondTable
     beams: BeamTable
-    bond_backend: str = "tendon"
-    native_model: mujoco.MjModel | None = None
-    engine_contacts: EngineContacts | None = None
-    _tendon: dict = field(default_factory=dict, repr=False, compare=False)
-
-    @property
-    def spec(self) -> mujoco.MjSpec:
-        return self._tendon_model()[0]
-
-    @property
-    def model(self) -> mujoco.MjModel:
-        return self._tendon_model()[1]
-
-    def _tendon_model(self) -> tuple[mujoco.MjSpec, mujoco.MjModel]:
-        if "model" not in self._tendon:
-            build = self._tendon.pop("build")
-            self._tendon["spec"], self._tendon["model"] = build()
-        return self._tendon["spec"], self._tendon["model"]
-
-    @property
-    def simulation_model(self) -> mujoco.MjModel:
-        """The model `simulation_of` steps: `native_model`, or the tendon `model`."""
-        return self.native_model if self.native_model is not None else self.model
-
-    @property
-    def native_bonds(self) -> BondTable | BeamTable:
-        """What the native loop computes the bonds from: `beams` or `bonds` (tendons), by
-        the scene's `bond_element`."""
-        return self.beams if self.physics.scene.bond_element == "beam" else self.bonds
 
     @property
     def timestep(self) -> float:
-        return float(self.simulation_model.opt.timestep)
+        return float(self.model.opt.timestep)
+
+    @property
+    def plugin_instance(self) -> int | None:
+        """The voxel plugin's instance id in `model`, or None ("mujoco" pipeline)."""
+        return 0 if self.pipeline == "voxel" else None
 
     def to_xml(self) -> str:
-        """MJCF text that plain `mujoco.MjModel.from_xml_string` loads into the same model
-        (the tendon model, whatever the backend). With contact_shape "engine" its floor is
-        MuJoCo "point" contacts with the same stiffness, damping and static friction, the
-        nearest plain MuJoCo has (no kinetic friction, no pulling damper)."""
+        """MJCF of exactly `model`. With the "voxel" pipeline, loading it needs the plugin
+        library: ``mujoco.mj_loadPluginLibrary(str(mjregen.plugin_library()))``."""
         return self.spec.to_xml()
-
-
-def resolve_bond_backend(scene) -> str:
-    """"tendon" or "native" for a scene's `bond_backend` ("auto": native when the library
-    builds here and the integrator is Euler, else tendon; always native for beam bonds and
-    the engine floor).
-
-    Raises:
-      NativeBuildError: "native" asked for and the library cannot be built.
-    """
-    if scene.bond_backend == "tendon":
-        return "tendon"
-    from mjregen import bonds_native
-
-    if (scene.bond_backend == "native" or scene.bond_element == "beam"
-            or (scene.contact_shape == "engine" and scene.floor)):
-        bonds_native._load()  # beams and the engine floor exist only natively: no fallback
-        return "native"
-    return "native" if scene.integrator == "euler" and bonds_native.available() else "tendon"
 
 
 def bond_geometry(poisson_ratio: float, voxel_size: float, *,
@@ -326,14 +239,122 @@ def bond_geometry(poisson_ratio: float, voxel_size: float, *,
     return voxel_size / math.sqrt(6.0), voxel_size * math.sqrt(shear_ratio / 2.0)
 
 
+@dataclass(frozen=True)
+class _Layout:
+    """The robot's voxels in body order, before MuJoCo (see `compile_robot`)."""
+
+    dim: int
+    voxels: list  # [(grid index tuple, Material)]
+    index_of: dict  # grid index -> voxel number
+    grid_index: np.ndarray  # (n, dim) int
+    masses: np.ndarray  # (n,) kg
+    centres: np.ndarray  # (n, 3) m, initial body positions
+    surface: np.ndarray  # (n,) bool: a face neighbour is missing
+    bonds: list  # [(i, j, world axis)], bonds touching a muscle first
+    clamped: set
+
+
+def _layout(robot: Robot, physics: Physics, clamped: set, elevation: float) -> _Layout:
+    L = physics.scene.voxel_size
+    dim = robot.dim
+    voxels = list(robot.voxels())
+    index_of = {index: i for i, (index, _) in enumerate(voxels)}
+    for c in clamped:
+        if c not in index_of:
+            raise CompileError(f"clamped index {c} is not a voxel of the robot")
+    masses = np.array([physics.voxel_mass(m) for _, m in voxels])
+    grid_index = np.array([index for index, _ in voxels])
+    centres = np.zeros((len(voxels), 3))
+    centres[:, WORLD_AXES[dim]] = (grid_index + 0.5) * L
+    centres[:, :2] -= masses @ centres[:, :2] / masses.sum()
+    centres[:, 2] += elevation - (centres[:, 2].min() - L / 2)
+    centres = np.round(centres, 12)  # to the picometre: no 1e-19 residues of the centring
+    bonds = _face_bonds(grid_index, index_of, dim)
+    is_muscle = [physics.materials[m].is_muscle for _, m in voxels]
+    bonds.sort(key=lambda bond: not (is_muscle[bond[0]] or is_muscle[bond[1]]))
+    return _Layout(dim=dim, voxels=voxels, index_of=index_of, grid_index=grid_index,
+                   masses=masses, centres=centres,
+                   surface=_surface(grid_index, index_of, dim), bonds=bonds, clamped=clamped)
+
+
+def _bond_tables(layout: _Layout, physics: Physics, poisson: float
+                 ) -> tuple[BondTable, BeamTable, MuscleTendons | None, float]:
+    """The bonds as tendons and as beams, the driven tendons, and the largest bond
+    stiffness per voxel mass (s⁻², for the stiffest-bond time step)."""
+    scene = physics.scene
+    L = scene.voxel_size
+    a, b = bond_geometry(poisson, L, bond_model=scene.bond_model)
+    voxels, masses = layout.voxels, layout.masses
+    weights, lateral = [], []
+    ends, offsets, stiffnesses, dampings, rests, tendon_bond = [], [], [], [], [], []
+    beam_stiffness, beam_law, beam_beta, beam_weights = [], [], [], []
+    max_k_per_m = 0.0
+    bond_kinds: dict[tuple, tuple] = {}
+    for bond, (i, j, axis) in enumerate(layout.bonds):
+        p_i, p_j = physics.materials[voxels[i][1]], physics.materials[voxels[j][1]]
+        e_bond = _series(p_i.youngs_modulus, p_j.youngs_modulus)
+        g_bond = (e_bond if scene.bond_model == "euler_bernoulli"
+                  else _series(p_i.shear_modulus, p_j.shear_modulus))
+        k_bond = e_bond * L
+        max_k_per_m = max(max_k_per_m, k_bond / min(masses[i], masses[j]))
+        damping_per_stiffness = (2.0 * scene.bond_damping_ratio
+                                 * math.sqrt(0.5 * (masses[i] + masses[j]) / k_bond))
+        bond_weights = [0.0, 0.0]
+        for props in (p_i, p_j):
+            if props.is_muscle:
+                bond_weights[0 if props.phase_sign > 0 else 1] += 0.5 * props.strain_amplitude
+        driven = p_i.is_muscle or p_j.is_muscle
+        beam_stiffness.append((e_bond * L, g_bond * L, e_bond * L**3 / 12.0, g_bond * L**3 / 3.0))
+        beam_beta.append(damping_per_stiffness)
+        if driven:
+            beam_weights.append(bond_weights)
+        key = (axis, e_bond, g_bond, damping_per_stiffness)
+        if key not in bond_kinds:  # robots have few distinct bonds: build each kind once
+            bond_kinds[key] = _bond_tendon_values(axis, layout.dim, L, a, b, e_bond, g_bond,
+                                                  damping_per_stiffness)
+        law, bond_tendons = bond_kinds[key]
+        for _, _, site_i, site_j, k_tendon, c_tendon, rest, extent in bond_tendons:
+            ends.append((i, j))
+            offsets.append((site_i, site_j))
+            stiffnesses.append(k_tendon)
+            dampings.append(c_tendon)
+            rests.append(rest)
+            tendon_bond.append(bond)
+            if driven:
+                weights.append(bond_weights)
+                lateral.append(extent)
+        beam_law.append(law)
+    if not layout.bonds:
+        present = {m for _, m in voxels}
+        max_k_per_m = max(physics.materials[m].youngs_modulus * L / physics.voxel_mass(m)
+                          for m in present)
+    table = BondTable(ends=np.array(ends, dtype=int).reshape(-1, 2),
+                      offsets=np.array(offsets, dtype=float).reshape(-1, 2, 3),
+                      stiffness=np.array(stiffnesses, dtype=float),
+                      damping=np.array(dampings, dtype=float), rest=np.array(rests, dtype=float),
+                      bond=np.array(tendon_bond, dtype=int),
+                      lateral=np.array([np.linalg.norm(np.subtract(*o)) for o in offsets],
+                                       dtype=float))
+    beams = BeamTable(ends=np.array([(i, j) for i, j, _ in layout.bonds], dtype=int).reshape(-1, 2),
+                      axis=np.array([axis for _, _, axis in layout.bonds], dtype=int),
+                      stiffness=np.array(beam_stiffness, dtype=float).reshape(-1, 4),
+                      axial_law=np.array(beam_law, dtype=float).reshape(-1, 3),
+                      beta=np.array(beam_beta, dtype=float),
+                      muscle_weights=np.array(beam_weights, dtype=float).reshape(-1, 2))
+    muscles = None
+    if weights:
+        muscles = MuscleTendons(weights=np.array(weights), lateral=np.array(lateral),
+                                voxel_size=L)
+    return table, beams, muscles, max_k_per_m
+
+
 def compile_robot(
     robot: Robot,
     *,
     physics: Physics | None = None,
     clamped: Iterable[Sequence[int]] = (),
     elevation: float = 0.0,
-    _backend: str | None = None,
-    _timestep: float | None = None,
+    drive: str = "waveform",
 ) -> CompiledRobot:
     """Build the MuJoCo model of `robot`.
 
@@ -342,10 +363,15 @@ def compile_robot(
       physics: materials and scene; None = the paper's (`Physics()`).
       clamped: grid indices of voxels fixed to the world (no joint), e.g. a cantilever's root.
       elevation: m, height of the lowest voxel's bottom face above the floor (>= 0).
+      drive: "waveform" (the muscles follow the scene's waveform from the end of the
+        settle) or "ctrl" (voxel pipeline: the strains (e₊, e₋) of the two muscle phases
+        are the controls of the actuators ``muscle_plus`` and ``muscle_minus``, which apply
+        no force themselves).
     Raises:
       CompileError: empty robot, a clamped index that is not a voxel, negative elevation.
       PhysicsParameterError: the robot's materials have different Poisson ratios.
-      NativeBuildError: the scene asks for bond_backend "native" and it cannot be built.
+      NativeBuildError: the voxel pipeline, or the network time step, and the plugin
+        library cannot be built.
     """
     physics = Physics() if physics is None else physics
     if not isinstance(robot, Robot):
@@ -354,75 +380,204 @@ def compile_robot(
         raise CompileError("cannot compile an empty robot (it has no voxels)")
     if not (math.isfinite(elevation) and elevation >= 0.0):
         raise CompileError(f"elevation must be a finite height >= 0 m, got {elevation!r}")
+    if drive not in DRIVES:
+        raise CompileError(f"drive must be one of {DRIVES}, got {drive!r}")
     scene = physics.scene
-    dim = robot.dim
-    L = scene.voxel_size
-    voxels = list(robot.voxels())
-    index_of = {index: i for i, (index, _) in enumerate(voxels)}
+    pipeline = pipeline_of(scene)
+    if drive == "ctrl" and pipeline != "voxel":
+        raise CompileError("drive 'ctrl' needs the voxel pipeline (contact_shape 'engine')")
     clamped_set = {tuple(int(i) for i in c) for c in clamped}
-    for c in clamped_set:
-        if c not in index_of:
-            raise CompileError(f"clamped index {c} is not a voxel of the robot")
-    present = {m for _, m in voxels}
-    ratios = {physics.materials[m].poisson_ratio for m in present}
+    layout = _layout(robot, physics, clamped_set, elevation)
+    ratios = {physics.materials[m].poisson_ratio for _, m in layout.voxels}
     if len(ratios) > 1:
         raise PhysicsParameterError(
             f"the robot's materials have different Poisson ratios {sorted(ratios)}; bond "
             "geometry needs one ratio per robot")
-    poisson = ratios.pop()
-    backend = _backend or resolve_bond_backend(scene)
-    tendons = backend == "tendon"
-    a, b = bond_geometry(poisson, L, bond_model=scene.bond_model)
+    table, beams, muscles, max_k_per_m = _bond_tables(layout, physics, ratios.pop())
+    if pipeline == "voxel" or (scene.timestep_rule == "network" and layout.bonds):
+        native.library()  # registers the plugin with MuJoCo
+    spec, bodies = _bodies(layout, physics)
+    if pipeline == "voxel":
+        _add_voxel_plugin(spec, layout, physics, table, beams, drive)
+    else:
+        _add_mujoco_bonds(spec, bodies, layout, physics, table, muscles)
+    spec.option.timestep = _mjcf(physics.timestep(max_k_per_m))
+    model = spec.compile()
+    if scene.timestep_rule == "network" and layout.bonds:
+        network = model
+        if pipeline != "voxel":  # the rule needs the plugin's forces: the same robot's
+            network_spec, _ = _bodies(layout, physics)
+            _add_voxel_plugin(network_spec, layout, physics.replace_scene(
+                bond_element="tendons"), table, beams, "waveform")
+            network = network_spec.compile()
+        floor_k = floor_c = None
+        if pipeline == "voxel" and scene.floor:
+            floor_k, floor_c = _floor_rates(network, layout, physics)
+        stiffness, damping = modes.network_rates(network, voxel_size=scene.voxel_size,
+                                                 floor_stiffness=floor_k, floor_damping=floor_c)
+        stiffening = modes.strain_stiffening(beams, scene)
+        spec.option.timestep = _mjcf(scene.timestep_safety * modes.stable_step(
+            stiffening * stiffness, stiffening * damping))
+        model.opt.timestep = spec.option.timestep
+    body_ids = np.array([model.body(body.name).id for body in bodies])
+    return CompiledRobot(
+        robot=robot, physics=physics, pipeline=pipeline, spec=spec, model=model,
+        voxel_index=layout.grid_index, body_ids=body_ids, masses=layout.masses,
+        muscles=muscles if pipeline == "mujoco" else None, n_bonds=len(layout.bonds),
+        bonds=table, beams=beams)
 
-    masses = np.array([physics.voxel_mass(m) for _, m in voxels])
-    grid_index = np.array([index for index, _ in voxels])
-    centres = np.zeros((len(voxels), 3))
-    centres[:, WORLD_AXES[dim]] = (grid_index + 0.5) * L
-    centres[:, :2] -= masses @ centres[:, :2] / masses.sum()
-    centres[:, 2] += elevation - (centres[:, 2].min() - L / 2)
-    centres = np.round(centres, 12)  # to the picometre: no 1e-19 residues of the centring
 
+def _floor_rates(model: mujoco.MjModel, layout: _Layout, physics: Physics
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """``(nv,)`` s⁻², s⁻¹: the engine floor's spring and damper per mass on each moving
+    voxel's vertical dof, as if every voxel touched the floor (the most any posture adds)."""
+    scene = physics.scene
+    L = scene.voxel_size
+    k, c = np.zeros(model.nv), np.zeros(model.nv)
+    vertical = 2 if layout.dim == 3 else 1
+    for voxel, (index, material) in enumerate(layout.voxels):
+        body = model.body(voxel_name(index)).id
+        if model.body_jntnum[body] == 0:
+            continue
+        dof = model.jnt_dofadr[model.body_jntadr[body]] + vertical
+        mass = layout.masses[voxel]
+        EL = physics.materials[material].youngs_modulus * L
+        k[dof] = scene.contact_stiffness * EL / mass
+        c[dof] = scene.contact_damping * 2.0 * math.sqrt(mass * EL) / mass
+    return k, c
+
+
+def _bodies(layout: _Layout, physics: Physics) -> tuple[mujoco.MjSpec, list]:
+    """A spec with options, materials, the floor plane and one body per voxel."""
+    scene = physics.scene
+    L = scene.voxel_size
     spec = mujoco.MjSpec()
     spec.modelname = "mjregen_robot"
     spec.option.gravity = _mjcf([0.0, 0.0, -scene.gravity])
     spec.option.integrator = {"euler": mujoco.mjtIntegrator.mjINT_EULER,
                               "rk4": mujoco.mjtIntegrator.mjINT_RK4}[scene.integrator]
-    # "engine" contacts on the native backend: floor, self-collision and drag in the C loop
-    engine = scene.contact_shape == "engine" and not tendons
-    engine_floor = engine and scene.floor
-    viscosity = 0.0
-    if scene.drag_ratio > 0.0:
-        soft = physics.materials[Material.SOFT]
-        mass = physics.voxel_mass(Material.SOFT)
-        drag = 2.0 * scene.drag_ratio * math.sqrt(mass * soft.youngs_modulus * L)
-        viscosity = _mjcf(drag / (3.0 * math.pi * L))  # Stokes: 3πμd, d = L
-        if not engine:
-            spec.option.viscosity = viscosity
-    point = scene.contact_shape == "point" or (scene.contact_shape == "engine" and tendons)
-    floor_geom = FLOOR
+    for material, name in MATERIAL_NAMES.items():
+        spec.add_material(name=name, rgba=list(MATERIAL_RGBA[material]))
     if scene.floor:
         spec.worldbody.add_geom(name=FLOOR, type=mujoco.mjtGeom.mjGEOM_PLANE,
                                 size=[0.0, 0.0, L], contype=0, conaffinity=0)
-        if point:
-            # the engine's floor acts on voxel centres lower than L/2: a hidden plane there
-            floor_geom = POINT_FLOOR
-            spec.worldbody.add_geom(name=POINT_FLOOR, type=mujoco.mjtGeom.mjGEOM_PLANE,
-                                    size=[0.0, 0.0, L], contype=0, conaffinity=0, group=3,
-                                    pos=[0.0, 0.0, _mjcf(L / 2 - POINT_RADIUS * L)])
-    surface = _surface(grid_index, index_of, dim)
     bodies = []
-    for i, ((index, material), centre) in enumerate(zip(voxels, centres)):
-        name = "v" + "_".join(str(k) for k in index)
+    for i, ((index, material), centre) in enumerate(zip(layout.voxels, layout.centres)):
+        name = voxel_name(index)
         body = spec.worldbody.add_body(name=name, pos=_mjcf(centre))
-        if index not in clamped_set:
-            _add_joints(body, dim)
+        if index not in layout.clamped:
+            _add_joints(body, layout.dim)
         body.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_BOX, size=_mjcf([L / 2] * 3),
-                      mass=_mjcf(masses[i]), contype=0, conaffinity=0)
+                      mass=_mjcf(layout.masses[i]), contype=0, conaffinity=0,
+                      material=MATERIAL_NAMES[material])
         bodies.append(body)
+    return spec, bodies
+
+
+def _numbers(values: Iterable) -> str:
+    """Plugin configuration text: numbers written exactly (shortest round-trip repr)."""
+    return " ".join(repr(int(v)) if isinstance(v, (int, np.integer)) else repr(float(v))
+                    for v in np.asarray(values).ravel().tolist())
+
+
+def _add_voxel_plugin(spec: mujoco.MjSpec, layout: _Layout, physics: Physics,
+                      table: BondTable, beams: BeamTable, drive: str) -> None:
+    """The ``mjregen.voxels`` instance that computes every force (contacts and constraints
+    of MuJoCo off), and with drive "ctrl" the two strain actuators."""
+    scene = physics.scene
+    L = scene.voxel_size
+    props = [physics.materials[m] for _, m in layout.voxels]
+    EL = np.array([p.youngs_modulus * L for p in props])
+    masses = layout.masses
+    settle, _ = scene.timing(layout.dim)
+    n_bonds = len(layout.bonds)
+    weights = np.zeros((n_bonds, 2))
+    weights[: len(beams.muscle_weights)] = beams.muscle_weights
+    drag = _drag(physics)
+    grid3 = np.zeros((len(layout.voxels), 3), dtype=int)
+    grid3[:, 3 - layout.dim:] = layout.grid_index
+    beam = scene.bond_element == "beam"
+    config = {
+        "dim": str(layout.dim), "voxel_size": repr(L),
+        "voxels": " ".join(voxel_name(index) for index, _ in layout.voxels),
+        "frequency": repr(scene.frequency), "start": repr(float(settle)),
+        "waveform": scene.waveform, "drive": drive,
+        "phase": _numbers([p.phase_sign for p in props]),
+        "strain": _numbers([p.strain_amplitude for p in props]),
+        "element": "beam" if beam else "tendons",
+        "bonds": _numbers(beams.ends), "bond_axis": _numbers(beams.axis),
+        "bond_muscle": _numbers(weights),
+        "floor": str(int(scene.floor)),
+        "floor_stiffness": _numbers(scene.contact_stiffness * EL),
+        "floor_damping": _numbers(scene.contact_damping * 2.0 * np.sqrt(masses * EL)),
+        "static_friction": _numbers([p.friction for p in props]),
+        "kinetic_friction": _numbers([p.friction if p.kinetic_friction is None
+                                      else p.kinetic_friction for p in props]),
+        "collision_radius": repr(scene.collision_radius * L if scene.self_collision else 0.0),
+        "collision_skin": repr(COLLISION_SKIN * L),
+        "grid": _numbers(grid3), "collides": _numbers(layout.surface.astype(int)),
+        "drag_linear": repr(3.0 * math.pi * L * drag),
+        "drag_rotational": repr(math.pi * L**3 * drag),
+    }
+    if beam:
+        config.update(bond_stiffness=_numbers(beams.stiffness),
+                      bond_axial_law=_numbers(beams.axial_law), bond_beta=_numbers(beams.beta))
+    else:
+        config.update(tendon_bond=_numbers(table.bond), tendon_sites=_numbers(table.offsets),
+                      tendon_stiffness=_numbers(table.stiffness),
+                      tendon_damping=_numbers(table.damping), tendon_rest=_numbers(table.rest),
+                      tendon_lateral2=_numbers(table.lateral ** 2))
+    unknown = set(config) - set(native.ATTRIBUTES)
+    if unknown:
+        raise AssertionError(f"voxel plugin attributes unknown to the plugin: {sorted(unknown)}")
+    spec.activate_plugin(native.PLUGIN_NAME)
+    instance = spec.add_plugin(name=PLUGIN_INSTANCE, plugin_name=native.PLUGIN_NAME, active=True)
+    instance.config = config
+    if drive == "ctrl":
+        spec.worldbody.add_site(name="muscles", size=[L / 10, 0.0, 0.0], group=4)
+        for name in ("muscle_plus", "muscle_minus"):
+            spec.add_actuator(name=name, trntype=mujoco.mjtTrn.mjTRN_SITE, target="muscles",
+                              gainprm=[0.0] * 10, biasprm=[0.0] * 10, ctrllimited=True,
+                              ctrlrange=[-1.0, 1.0])
+    # the plugin is every force: MuJoCo has no contact or constraint to find or solve
+    spec.option.disableflags |= (mujoco.mjtDisableBit.mjDSBL_CONTACT
+                                 | mujoco.mjtDisableBit.mjDSBL_CONSTRAINT)
+
+
+def _drag(physics: Physics) -> float:
+    """Pa·s: the viscosity whose Stokes drag on a voxel (3πμL) is the scene's drag,
+    2·drag_ratio·sqrt(m E L) of a soft voxel (0: none)."""
+    scene = physics.scene
+    if scene.drag_ratio <= 0.0:
+        return 0.0
+    L = scene.voxel_size
+    soft = physics.materials[Material.SOFT]
+    drag = 2.0 * scene.drag_ratio * math.sqrt(physics.voxel_mass(Material.SOFT)
+                                              * soft.youngs_modulus * L)
+    return _mjcf(drag / (3.0 * math.pi * L))
+
+
+def _add_mujoco_bonds(spec: mujoco.MjSpec, bodies: list, layout: _Layout, physics: Physics,
+                      table: BondTable, muscles: MuscleTendons | None) -> None:
+    """Pure MuJoCo: bond tendons with sites, MuJoCo contacts with the floor, collision
+    spheres and exclusions for self-collision, viscosity for the drag."""
+    scene = physics.scene
+    L = scene.voxel_size
+    spec.option.viscosity = _drag(physics)
+    point = scene.contact_shape == "point"
+    floor_geom = FLOOR
+    if scene.floor and point:
+        # the engine's floor acts on voxel centres lower than L/2: a hidden plane there
+        floor_geom = POINT_FLOOR
+        spec.worldbody.add_geom(name=POINT_FLOOR, type=mujoco.mjtGeom.mjGEOM_PLANE,
+                                size=[0.0, 0.0, L], contype=0, conaffinity=0, group=3,
+                                pos=[0.0, 0.0, _mjcf(L / 2 - POINT_RADIUS * L)])
+    for i, ((index, material), body) in enumerate(zip(layout.voxels, bodies)):
+        name = body.name
         props = physics.materials[material]
-        solref, solimp = _contact_solver(scene, props, masses[i])
+        solref, solimp = _contact_solver(scene, props, layout.masses[i])
         contact_geom = name
-        collide = int(scene.self_collision and surface[i] and not engine)
+        collide = int(scene.self_collision and layout.surface[i])
         # contact geoms are massless and hidden (group 3): the box keeps mass, inertia, looks
         if scene.contact_shape == "sphere" or (collide and scene.collision_radius == 0.5):
             # one sphere of radius L/2 serves the floor ("sphere") and self-collision
@@ -437,144 +592,30 @@ def compile_robot(
                           size=_mjcf([scene.collision_radius * L, 0.0, 0.0]), mass=0.0,
                           contype=1, conaffinity=1, condim=1, group=3, solref=solref,
                           solimp=solimp)
-        if scene.contact_shape == "box":
-            contact_geom = name
-        elif point:
+        if point:
             contact_geom = "p" + name
             body.add_geom(name=contact_geom, type=mujoco.mjtGeom.mjGEOM_SPHERE,
                           size=_mjcf([POINT_RADIUS * L, 0.0, 0.0]), mass=0.0, contype=0,
                           conaffinity=0, group=3)
-        if scene.floor and index not in clamped_set and not engine_floor:
+        if scene.floor and index not in layout.clamped:
             spec.add_pair(geomname1=floor_geom, geomname2=contact_geom, condim=3,
                           friction=_mjcf([props.friction, props.friction, 0.0, 0.0, 0.0]),
                           solref=solref, solimp=solimp)
-    if scene.self_collision and not engine:
-        for i, j in _near_pairs(grid_index, index_of):
+    if scene.self_collision:
+        for i, j in _near_pairs(layout.grid_index, layout.index_of):
             spec.add_exclude(bodyname1=bodies[i].name, bodyname2=bodies[j].name)
-
-    bonds = _face_bonds(grid_index, index_of, dim)
-    is_muscle = [physics.materials[m].is_muscle for _, m in voxels]
-    bonds.sort(key=lambda bond: not (is_muscle[bond[0]] or is_muscle[bond[1]]))
     sites: dict[tuple[int, tuple[float, ...]], str] = {}
-    weights, lateral = [], []
-    ends, offsets, stiffnesses, dampings, rests = [], [], [], [], []
-    beam_stiffness, beam_law, beam_beta, beam_weights = [], [], [], []
-    max_k_per_m = 0.0
-    bond_kinds: dict[tuple, tuple] = {}
-    for i, j, axis in bonds:
-        p_i, p_j = physics.materials[voxels[i][1]], physics.materials[voxels[j][1]]
-        e_bond = _series(p_i.youngs_modulus, p_j.youngs_modulus)
-        g_bond = (e_bond if scene.bond_model == "euler_bernoulli"
-                  else _series(p_i.shear_modulus, p_j.shear_modulus))
-        k_bond = e_bond * L
-        max_k_per_m = max(max_k_per_m, k_bond / min(masses[i], masses[j]))
-        damping_per_stiffness = (2.0 * scene.bond_damping_ratio
-                                 * math.sqrt(0.5 * (masses[i] + masses[j]) / k_bond))
-        bond_weights = [0.0, 0.0]
-        for voxel, props in ((i, p_i), (j, p_j)):
-            if props.is_muscle:
-                bond_weights[0 if props.phase_sign > 0 else 1] += 0.5 * props.strain_amplitude
-        beam_stiffness.append((e_bond * L, g_bond * L, e_bond * L**3 / 12.0, g_bond * L**3 / 3.0))
-        beam_beta.append(damping_per_stiffness)
-        if is_muscle[i] or is_muscle[j]:
-            beam_weights.append(bond_weights)
-        key = (axis, e_bond, g_bond, damping_per_stiffness)
-        if key not in bond_kinds:  # robots have few distinct bonds: build each kind once
-            bond_kinds[key] = _bond_tendon_values(axis, dim, L, a, b, e_bond, g_bond,
-                                                  damping_per_stiffness)
-        law, bond_tendons = bond_kinds[key]
-        for offset_i, offset_j, site_i, site_j, k_tendon, c_tendon, rest, extent \
-                in bond_tendons:
-            if tendons:
-                tendon = spec.add_tendon(name=f"t{len(stiffnesses)}")
-                tendon.wrap_site(_site(bodies[i], i, offset_i, sites))
-                tendon.wrap_site(_site(bodies[j], j, offset_j, sites))
-                tendon.stiffness = [k_tendon, 0.0, 0.0]
-                tendon.damping = [c_tendon, 0.0, 0.0]
-                tendon.springlength = [rest, rest]
-            ends.append((i, j))
-            offsets.append((site_i, site_j))
-            stiffnesses.append(k_tendon)
-            dampings.append(c_tendon)
-            rests.append(rest)
-            if is_muscle[i] or is_muscle[j]:
-                weights.append(bond_weights)
-                lateral.append(extent)
-        beam_law.append(law)
-    if not bonds:
-        max_k_per_m = max(physics.materials[m].youngs_modulus * L / physics.voxel_mass(m)
-                          for m in present)
-    rate_drive = bool(weights) and scene.damp_strain_rate
-    if rate_drive and tendons:
-        for k in range(len(weights)):
-            spec.add_actuator(name=f"m{k}", trntype=mujoco.mjtTrn.mjTRN_TENDON, target=f"t{k}",
-                              gainprm=[1.0] + [0.0] * 9)
-    network_rule = scene.timestep_rule == "network" and bool(bonds) and _timestep is None
-    if network_rule and tendons:
-        from mjregen import bonds_native
+    for t in range(table.count):
+        i, j = table.ends[t]
+        tendon = spec.add_tendon(name=f"bond{table.bond[t]}_{t}")
+        tendon.wrap_site(_site(bodies[i], int(i), tuple(table.offsets[t, 0]), sites))
+        tendon.wrap_site(_site(bodies[j], int(j), tuple(table.offsets[t, 1]), sites))
+        tendon.stiffness = [float(table.stiffness[t]), 0.0, 0.0]
+        tendon.damping = [float(table.damping[t]), 0.0, 0.0]
+        tendon.springlength = [float(table.rest[t])] * 2
 
-        if not bonds_native.available():
-            raise PhysicsParameterError(
-                "timestep_rule 'network' computes the step from the native bond forces, which "
-                "need a C compiler; use timestep_rule 'stiffest_bond' (sphere_physics() and "
-                "legacy_physics() do)")
-        # the rule needs the native forces: take the step of the same robot's native build
-        _timestep = compile_robot(robot, physics=physics, clamped=clamped_set,
-                                  elevation=elevation, _backend="native").timestep
-        network_rule = False
-    spec.option.timestep = _mjcf(physics.timestep(max_k_per_m)) if _timestep is None \
-        else _timestep
-    if engine:
-        spec.nuserdata = len(voxels)  # the floor's stick flags
-        # floor, self-collision and drag are native: MuJoCo has no contact or constraint to
-        # find or solve, so skip those stages (bit-identical results, ~15 % less per step)
-        spec.option.disableflags |= (mujoco.mjtDisableBit.mjDSBL_CONTACT
-                                     | mujoco.mjtDisableBit.mjDSBL_CONSTRAINT)
-    model = spec.compile()
-    table = BondTable(ends=np.array(ends, dtype=int).reshape(-1, 2),
-                      offsets=np.array(offsets, dtype=float).reshape(-1, 2, 3),
-                      stiffness=np.array(stiffnesses, dtype=float),
-                      damping=np.array(dampings, dtype=float), rest=np.array(rests, dtype=float))
-    beams = BeamTable(ends=np.array([(i, j) for i, j, _ in bonds], dtype=int).reshape(-1, 2),
-                      axis=np.array([axis for _, _, axis in bonds], dtype=int),
-                      stiffness=np.array(beam_stiffness, dtype=float).reshape(-1, 4),
-                      axial_law=np.array(beam_law, dtype=float).reshape(-1, 3),
-                      beta=np.array(beam_beta, dtype=float),
-                      muscle_weights=np.array(beam_weights, dtype=float).reshape(-1, 2))
-    muscles = None
-    if weights:
-        muscles = MuscleTendons(weights=np.array(weights), lateral=np.array(lateral),
-                                voxel_size=L,
-                                damping=table.damping[: len(weights)].copy() if rate_drive
-                                else None)
-    body_ids = np.array([model.body(body.name).id for body in bodies])
-    contacts = _engine_contacts(physics, [m for _, m in voxels], masses, grid_index, surface,
-                                viscosity) if engine else None
-    if network_rule:
-        from mjregen.modes import network_rates, stable_step, strain_stiffening
 
-        stiffness, damping = network_rates(
-            model, beams if scene.bond_element == "beam" else table, voxel_bodies=body_ids,
-            dim=dim, muscles=muscles, scene=scene, floor=contacts)
-        stiffening = strain_stiffening(beams, scene)
-        model.opt.timestep = _mjcf(scene.timestep_safety * stable_step(
-            stiffening * stiffness, stiffening * damping))
-    lazy: dict = {"spec": spec, "model": model}
-    if not tendons:
-        timestep = float(model.opt.timestep)
-
-        def build_tendon_model() -> tuple[mujoco.MjSpec, mujoco.MjModel]:
-            tendon = compile_robot(robot, physics=physics, clamped=clamped_set,
-                                   elevation=elevation, _backend="tendon", _timestep=timestep)
-            return tendon.spec, tendon.model
-        lazy = {"build": build_tendon_model}
-    return CompiledRobot(
-        robot=robot, physics=physics, voxel_index=grid_index,
-        body_ids=body_ids,
-        masses=masses, muscles=muscles, n_bonds=len(bonds), bonds=table, beams=beams,
-        bond_backend=backend, native_model=None if tendons else model,
-        engine_contacts=contacts,
-        _tendon=lazy)
+COLLISION_SKIN = 0.5  # Verlet-list skin of the plugin's self-collision, in voxel lengths
 
 
 def _mjcf(values: float | Sequence[float] | np.ndarray) -> float | list[float]:

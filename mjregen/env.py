@@ -30,7 +30,6 @@ return of an episode is the distance that `simulate` scores, for the actions tak
 
 from __future__ import annotations
 
-import copy
 import math
 
 import dm_env
@@ -38,7 +37,7 @@ import mujoco
 import numpy as np
 from dm_env import specs
 
-from mjregen.compile import CompiledRobot, compile_robot
+from mjregen.compile import CompiledRobot, compile_robot, pipeline_of
 from mjregen.errors import MjregenError
 from mjregen.grid import Robot
 from mjregen.physics import Physics
@@ -67,8 +66,12 @@ class RobotEnv(dm_env.Environment):
 
     def __init__(self, robot: Robot | CompiledRobot, *, physics: Physics | None = None,
                  duration: float | None = None, control_timestep: float | None = None) -> None:
-        compiled = robot if isinstance(robot, CompiledRobot) else compile_robot(robot,
-                                                                                physics=physics)
+        if isinstance(robot, CompiledRobot):
+            physics, robot = robot.physics, robot.robot
+        physics = Physics() if physics is None else physics
+        # the voxel plugin takes the strains from two control inputs
+        drive = "ctrl" if pipeline_of(physics.scene) == "voxel" else "waveform"
+        compiled = compile_robot(robot, physics=physics, drive=drive)
         self.compiled = compiled
         scene = compiled.physics.scene
         settle, measured = scene.timing(compiled.robot.dim)
@@ -83,18 +86,8 @@ class RobotEnv(dm_env.Environment):
         self.control_timestep = self.n_substeps * dt
         self.n_control_steps = max(1, round(duration / self.control_timestep))
         self._n_settle = round(settle / dt)
-        if compiled.native_model is not None:
-            # native bonds (and the engine floor): the strains go straight to the C loop
-            self._model = compiled.native_model
-            self._sim = Simulation(self._model, scene=scene, muscles=compiled.muscles,
-                                   actuation_start=0.0, bonds=compiled.native_bonds,
-                                   voxel_bodies=compiled.body_ids,
-                                   engine_contacts=compiled.engine_contacts,
-                                   external_strains=True)
-        else:
-            self._model = copy.copy(compiled.model)  # its muscle rest lengths are rewritten
-            self._sim = Simulation(self._model, scene=scene, muscles=None,
-                                   actuation_start=0.0)
+        self._model = compiled.model  # pure MuJoCo: its muscle rest lengths are rewritten
+        self._sim = Simulation(self._model, scene=scene, plugin_instance=compiled.plugin_instance)
         self._planar = [0, 1] if compiled.robot.dim == 3 else [0]
         self._voxel = scene.voxel_size
         self._high = 0.0 if scene.waveform == "contract" else 1.0
@@ -170,9 +163,9 @@ class RobotEnv(dm_env.Environment):
 
     def _set_strains(self, action: np.ndarray) -> None:
         """Write the driven tendons' rest lengths, with the operations of `Simulation.run`
-        (native bonds: hand the strains to the C loop)."""
-        if self._sim.native:
-            self._sim.strain_input[:] = action
+        (voxel plugin: the two strain controls)."""
+        if self.compiled.plugin_instance is not None:
+            self._sim.data.ctrl[:] = action
         elif len(self._plus):
             axial = self._voxel + self._plus * action[0] + self._minus * action[1]
             rest = np.sqrt(axial * axial + self._lateral2)

@@ -12,7 +12,7 @@ topology (a block of its stiffest bond) for every robot.
 
 λ and μ are found by Lanczos iteration on the mass-weighted operators M^-½ K M^-½ and
 M^-½ C M^-½, applied matrix-free as central differences of the native bond forces
-(`mjregen.bonds_native`, the very forces the simulation integrates) about the rest state:
+(the voxel plugin's, `mjr_network_forces`: the very forces the simulation integrates) about the rest state:
 K y from displacements (positions and rotations, through ``mj_integratePos``), C y from
 velocities, without self-collision or actuation. The engine floor is included as if every
 voxel touched it (its penalty spring and damper on each voxel's vertical motion: the most
@@ -28,43 +28,42 @@ import math
 import mujoco
 import numpy as np
 
-from mjregen import bonds_native
-from mjregen.bonds_native import NativeBonds
-from mjregen.simulate import rotational_dofs
+from mjregen.physics import native
 
 LANCZOS_STEPS = 40
 RELATIVE_PROBE = 1e-7  # largest probe displacement, in voxel lengths (or radians)
 
 
-class _NetworkForces:
-    """The bond forces ``(nv,)`` of a compiled robot at a given perturbation of its rest state."""
+def rotational_dofs(model: mujoco.MjModel) -> np.ndarray:
+    """``(nv,)`` bool: the dofs that turn a body (hinges, free joints' last three), not
+    slide it."""
+    rotational = np.zeros(model.nv, dtype=bool)
+    rotational[model.jnt_dofadr[model.jnt_type == mujoco.mjtJoint.mjJNT_HINGE]] = True
+    for adr in model.jnt_dofadr[model.jnt_type == mujoco.mjtJoint.mjJNT_FREE]:
+        rotational[adr + 3: adr + 6] = True
+    return rotational
 
-    def __init__(self, model: mujoco.MjModel, bonds, *, voxel_bodies: np.ndarray, dim: int,
-                 muscles, scene, floor=None) -> None:
+
+class _NetworkForces:
+    """The bond forces ``(nv,)`` of a voxel-plugin model at a perturbation of its rest state."""
+
+    def __init__(self, model: mujoco.MjModel, *, voxel_size: float, instance: int,
+                 floor_stiffness: np.ndarray | None, floor_damping: np.ndarray | None) -> None:
         self.model = model
         self.data = mujoco.MjData(model)
-        bonds = NativeBonds(model, bonds, voxel_bodies=voxel_bodies, dim=dim, muscles=muscles,
-                            scene=scene, actuation_start=math.inf)
-        bonds.attach(self, self.data)
-        self._library = bonds_native.library()
+        self.instance = instance
+        self._library = native.library()
         self.q0 = model.qpos0.copy()
         self.mass = np.zeros(model.nv)
-        mujoco.mj_forward(model, self.data)  # the mass matrix (no floor, no actuation here)
+        mujoco.mj_forward(model, self.data)  # the mass matrix
         mujoco.mj_mulM(model, self.data, self.mass, np.ones(model.nv))  # diagonal for voxels
         self.scale = 1.0 / np.sqrt(self.mass)  # mass-weighting S = M^-½
         # m per unit of each dof (a radian: one voxel length)
-        self.dof_length = np.where(rotational_dofs(model), scene.voxel_size, 1.0)
-        self.voxel_size = scene.voxel_size
+        self.dof_length = np.where(rotational_dofs(model), voxel_size, 1.0)
+        self.voxel_size = voxel_size
         # the floor on every voxel's vertical dof, per mass (s⁻², s⁻¹)
-        self.floor_k = np.zeros(model.nv)
-        self.floor_c = np.zeros(model.nv)
-        if floor is not None and floor.floor:
-            for voxel, body in enumerate(voxel_bodies):
-                if model.body_jntnum[body] == 0:
-                    continue
-                vertical = model.jnt_dofadr[model.body_jntadr[body]] + (2 if dim == 3 else 1)
-                self.floor_k[vertical] = floor.stiffness[voxel] / floor.mass[voxel]
-                self.floor_c[vertical] = floor.damping[voxel] / floor.mass[voxel]
+        self.floor_k = np.zeros(model.nv) if floor_stiffness is None else floor_stiffness
+        self.floor_c = np.zeros(model.nv) if floor_damping is None else floor_damping
 
     def forces(self, qvel_step: np.ndarray, velocity: np.ndarray) -> np.ndarray:
         """qfrc of the bonds at q0 ⊕ qvel_step (``mj_integratePos`` over 1 s), velocity."""
@@ -72,8 +71,7 @@ class _NetworkForces:
         data.qpos[:] = self.q0
         mujoco.mj_integratePos(self.model, data.qpos, qvel_step, 1.0)
         data.qvel[:] = velocity
-        data.qfrc_passive[:] = 0.0
-        self._library.mjr_passive(self.model._address, data._address)
+        self._library.mjr_network_forces(self.model._address, data._address, self.instance)
         return data.qfrc_passive.copy()
 
     def _epsilon(self, direction: np.ndarray) -> float:
@@ -125,18 +123,19 @@ def largest_eigenvalue(apply, n: int, steps: int = LANCZOS_STEPS, seed: int = 0)
     return float(np.max(np.linalg.eigvalsh(tridiagonal)))
 
 
-def network_rates(model: mujoco.MjModel, bonds, *, voxel_bodies: np.ndarray, dim: int,
-                  muscles, scene, floor=None) -> tuple[float, float]:
+def network_rates(model: mujoco.MjModel, *, voxel_size: float, instance: int = 0,
+                  floor_stiffness: np.ndarray | None = None,
+                  floor_damping: np.ndarray | None = None) -> tuple[float, float]:
     """(λ s⁻², μ s⁻¹): the largest eigenvalues of M⁻¹K and M⁻¹C of the bond network.
 
     Args:
-      model: the robot's model (its qpos0 is the rest state; MuJoCo tendons are ignored).
-      bonds: the `BondTable` or `BeamTable` the native loop computes the bonds from.
-      voxel_bodies, dim, muscles, scene: as for `NativeBonds`.
-      floor: the robot's `EngineContacts` (its floor acts on every voxel), or None.
+      model: a model with the voxel plugin as `instance` (its qpos0 is the rest state).
+      voxel_size: L in m (the probes' scale).
+      floor_stiffness, floor_damping: ``(nv,)`` s⁻² and s⁻¹, the floor's spring and damper
+        per mass on each voxel's vertical dof (0 elsewhere), or None (no floor).
     """
-    network = _NetworkForces(model, bonds, voxel_bodies=voxel_bodies, dim=dim,
-                             muscles=muscles, scene=scene, floor=floor)
+    network = _NetworkForces(model, voxel_size=voxel_size, instance=instance,
+                             floor_stiffness=floor_stiffness, floor_damping=floor_damping)
     n = network.model.nv
     return (largest_eigenvalue(network.stiffness, n),
             largest_eigenvalue(network.damping, n, seed=1))

@@ -2,13 +2,12 @@
 
 `simulate(robot)` compiles the robot (`mjregen.compile`), lets it settle without actuation
 for the scene's settle time, then drives the muscles for the measured time and returns a
-`Result`. With the native bond backend (the default where a C compiler exists,
-`Scene.bond_backend`) bond forces and the muscle drive are computed in C inside MuJoCo's
-step, so `Simulation.run` advances ``CHECK_EVERY`` steps per call between stability checks
-and runs no Python per step; with the engine's contacts as well (the default) the steps are
-the native stepper's (`mjregen.stepping`: MuJoCo's Euler step for independent voxel bodies,
-to rounding, at half the cost), else ``mj_step``'s. With the tendon backend the only
-per-step Python work is writing the driven tendons' rest lengths when the robot has muscles.
+`Result`. In the voxel pipeline (the default) every force and the muscles are the voxel
+plugin's, inside MuJoCo's step, so `Simulation.run` advances ``CHECK_EVERY`` steps per call
+between stability checks and runs no Python per step; the steps are the native stepper's
+(`mjregen.stepping`: ``mj_step``'s Euler step for independent voxel bodies, to rounding, at
+half the cost) or ``mj_step``'s (``Scene.stepper``). In the pure-MuJoCo pipeline the only
+per-step Python work is writing the driven tendons' rest lengths.
 """
 
 from __future__ import annotations
@@ -21,9 +20,11 @@ import mujoco
 import numpy as np
 from numpy.typing import ArrayLike
 
-from mjregen.compile import BondTable, CompiledRobot, EngineContacts, MuscleTendons, compile_robot
+from mjregen.compile import CompiledRobot, MuscleTendons, compile_robot
 from mjregen.grid import Robot
+from mjregen.modes import rotational_dofs
 from mjregen.physics import Physics, PhysicsParameterError, Scene
+from mjregen.stepping import NativeStepper, unsupported
 
 VOXEL_COST = 0.0583  # 3D fitness penalty per voxel (≈ 20/343, the paper's)
 EMPTY_FITNESS = {3: -20.0, 2: 0.0}  # the paper's score of a robot without voxels
@@ -69,81 +70,45 @@ class Result:
 
 
 class Simulation:
-    """Steps a MuJoCo model of a robot with its muscle drive and stability guard.
+    """Steps a MuJoCo model of a robot with its stability guard (and, in the pure-MuJoCo
+    pipeline, its muscle drive).
 
-    Works on any model with the tendon layout of `compile_robot` (also one loaded from the
-    exported XML). It rewrites ``model.tendon_lengthspring`` of the driven tendons, so give
-    each `Simulation` its own model.
-
-    With `bonds` (the native backend) the model is `CompiledRobot.native_model` (no
-    tendons): the bond forces and the muscle drive are computed in C for this simulation's
-    `data` (registered until the `Simulation` is garbage-collected), the model is not
-    modified, and `run` steps without Python in the loop. `stepper` is the
-    `mjregen.stepping.NativeStepper` that advances `data` when `scene.stepper` allows and the
-    model qualifies, else None (``mj_step``); `run` then updates the positional and velocity
-    quantities (``xpos``, ``subtree_com``, ``cvel``) once at its end, for the final state
-    (``mj_step`` leaves those of the state before its last step).
+    With `plugin_instance` (the voxel pipeline) the voxel plugin computes every force and
+    drives the muscles; `stepper` is the `mjregen.stepping.NativeStepper` that advances
+    `data` when `scene.stepper` allows, else None (``mj_step``). `run` then updates the
+    positional and velocity quantities (``xpos``, ``subtree_com``, ``cvel``) once at its end,
+    for the final state (``mj_step`` leaves those of the state before its last step).
+    Without it (the pure-MuJoCo pipeline) `run` rewrites ``model.tendon_lengthspring`` of
+    the driven tendons before every step, so give each `Simulation` its own model.
 
     Args:
-      model: the MuJoCo model.
+      model: the MuJoCo model (also one loaded from the exported XML).
       scene: actuation and timing settings.
-      muscles: the driven tendons (None: passive robot).
-      actuation_start: s, time at which the muscle waveform starts (phase 0).
-      bonds: the robot's `BondTable` to simulate natively (its `model` must then be the
-        tendon-free `native_model`); None: the model's own tendons carry the bonds.
-      voxel_bodies: with `bonds`, the voxels' body ids (`CompiledRobot.body_ids`).
-      engine_contacts: with `bonds`, the engine's floor, self-collision and drag to compute
-        in the same loop (`EngineContacts`; the model then has no MuJoCo contacts).
-      external_strains: with `bonds`, the muscle strains (e₊, e₋) come from
-        `strain_input`, written by the caller (e.g. a controller), not from the waveform.
+      muscles: the pure-MuJoCo pipeline's driven tendons (None: passive robot, or the voxel
+        plugin drives them).
+      actuation_start: s, time at which the muscle waveform starts (phase 0), for `muscles`.
+      plugin_instance: the voxel plugin's instance id in `model`, or None.
     """
 
     def __init__(self, model: mujoco.MjModel, *, scene: Scene,
-                 muscles: MuscleTendons | None, actuation_start: float,
-                 bonds: BondTable | None = None,
-                 voxel_bodies: np.ndarray | None = None,
-                 engine_contacts: EngineContacts | None = None,
-                 external_strains: bool = False) -> None:
+                 muscles: MuscleTendons | None = None, actuation_start: float = 0.0,
+                 plugin_instance: int | None = None) -> None:
         self.model = model
         self.data = mujoco.MjData(model)
         self.steps = 0
         self._scene = scene
         self._start = actuation_start
         self._muscles = muscles
-        self.native = bonds is not None
-        self.strain_input: np.ndarray | None = None
-        if self.native:
-            from mjregen.bonds_native import NativeBonds
-
-            if model.ntendon:
-                raise ValueError("native bonds need the tendon-free model "
-                                 "(CompiledRobot.native_model), this one has tendons")
-            if voxel_bodies is None:
-                raise ValueError("native bonds need voxel_bodies (CompiledRobot.body_ids)")
-            dim = 3 if model.jnt_type.size == 0 or mujoco.mjtJoint.mjJNT_FREE in model.jnt_type \
-                else 2
-            native = NativeBonds(model, bonds, voxel_bodies=np.asarray(voxel_bodies), dim=dim,
-                                 muscles=muscles, scene=scene, actuation_start=actuation_start,
-                                 engine_contacts=engine_contacts,
-                                 external_strains=external_strains)
-            native.attach(self, self.data)
-            self.strain_input = native.arrays.get("strain_in")  # (2,) or None
-        elif muscles is not None:
+        if muscles is not None:
+            if plugin_instance is not None:
+                raise ValueError("the voxel plugin drives its own muscles: pass muscles=None")
             length = muscles.voxel_size
             self._base = np.full(muscles.count, length)
             self._plus = length * muscles.weights[:, 0]
             self._minus = length * muscles.weights[:, 1]
             self._lateral2 = muscles.lateral ** 2
             self._rest = self.model.tendon_lengthspring[: muscles.count]
-            self._rate_drive = muscles.damping is not None
-            if self._rate_drive:
-                if model.nu < muscles.count:
-                    raise ValueError(f"the muscles' damping drive needs {muscles.count} "
-                                     f"actuators on the driven tendons, the model has {model.nu}")
-                self._drive = self.data.ctrl[: muscles.count]
-                self._plus_c = muscles.damping * self._plus
-                self._minus_c = muscles.damping * self._minus
-        self.stepper = _stepper_for(model, self.data, scene, self.native)
+        self.stepper = _stepper_for(model, self.data, scene, plugin_instance)
         voxel = scene.voxel_size  # a rotation's speed limit: RUNAWAY_SPEED·L per L
         self._inv_limit = np.where(rotational_dofs(model), voxel, 1.0) / (RUNAWAY_SPEED * voxel)
 
@@ -156,17 +121,6 @@ class Simulation:
             return min(0.0, wave), min(0.0, -wave)
         return wave, -wave
 
-    def strain_rates(self, t: float) -> tuple[float, float]:
-        """Time derivatives (1/s) of `strains` at `t` (one-sided at the clamp's kinks)."""
-        if t < self._start:
-            return 0.0, 0.0
-        omega = 2.0 * math.pi * self._scene.frequency
-        phase = omega * (t - self._start)
-        wave, rate = math.sin(phase), omega * math.cos(phase)
-        if self._scene.waveform == "contract":
-            return (rate if wave < 0.0 else 0.0), (-rate if wave > 0.0 else 0.0)
-        return rate, -rate
-
     def run(self, n_steps: int, *, com: np.ndarray | None = None) -> str:
         """Advance `n_steps` steps; return "" or the reason the state became unstable.
 
@@ -177,7 +131,7 @@ class Simulation:
         """
         model, data = self.model, self.data
         dt = model.opt.timestep
-        drive = self._muscles is not None and not self.native
+        drive = self._muscles is not None
         if self.stepper is not None or (com is None and not drive):
             # nothing to do in Python between checks: the steps run in C
             done = 0
@@ -205,11 +159,6 @@ class Simulation:
                 axial = self._base + self._plus * plus + self._minus * minus
                 rest = np.sqrt(axial * axial + self._lateral2)
                 self._rest[:] = rest[:, None]
-                if self._rate_drive:
-                    # c·dl₀/dt along each driven tendon: its damper then acts on d(l − l₀)/dt
-                    rate_plus, rate_minus = self.strain_rates((self.steps + k + 0.5) * dt)
-                    self._drive[:] = (axial / rest) * (self._plus_c * rate_plus
-                                                       + self._minus_c * rate_minus)
             mujoco.mj_step(model, data)
             if com is not None:
                 com[k] = data.subtree_com[0]
@@ -224,7 +173,7 @@ class Simulation:
     def _kinematics(self) -> None:
         """Positions, frames, centres of mass and their velocities (``xpos``, ``subtree_com``,
         ``cvel``, ...) of the current state, which the native stepper does not compute; no
-        forces (the native floor's stick state is only advanced by steps)."""
+        forces."""
         mujoco.mj_kinematics(self.model, self.data)
         mujoco.mj_comPos(self.model, self.data)
         mujoco.mj_comVel(self.model, self.data)
@@ -249,42 +198,25 @@ class Simulation:
         return self.data.subtree_com[0].copy()
 
 
-def rotational_dofs(model: mujoco.MjModel) -> np.ndarray:
-    """``(nv,)`` bool: the dofs that turn a body (hinges, free joints' last three), not
-    slide it."""
-    rotational = np.zeros(model.nv, dtype=bool)
-    rotational[model.jnt_dofadr[model.jnt_type == mujoco.mjtJoint.mjJNT_HINGE]] = True
-    for adr in model.jnt_dofadr[model.jnt_type == mujoco.mjtJoint.mjJNT_FREE]:
-        rotational[adr + 3: adr + 6] = True
-    return rotational
-
-
 def _stepper_for(model: mujoco.MjModel, data: mujoco.MjData, scene: Scene,
-                 native_bonds: bool):
+                 plugin_instance: int | None) -> NativeStepper | None:
     """The `NativeStepper` that `scene.stepper` asks for, or None for ``mj_step``."""
     if scene.stepper == "mujoco":
         return None
-    from mjregen.stepping import NativeStepper, unsupported
-
-    reason = "the bonds are MuJoCo tendons" if not native_bonds else unsupported(model)
+    reason = "the model has no voxel plugin" if plugin_instance is None else unsupported(model)
     if not reason:
-        return NativeStepper(model, data, checked=True)
+        return NativeStepper(model, data, instance=plugin_instance, checked=True)
     if scene.stepper == "native":
         raise PhysicsParameterError(f"stepper 'native' cannot step this model: {reason}")
     return None
 
 
 def simulation_of(compiled: CompiledRobot) -> Simulation:
-    """A `Simulation` of a compiled robot with actuation after the scene's settle time."""
+    """A `Simulation` of a compiled robot (muscles from the end of the scene's settle)."""
     scene = compiled.physics.scene
     settle, _ = scene.timing(compiled.robot.dim)
-    if compiled.native_model is not None:
-        return Simulation(compiled.native_model, scene=scene, muscles=compiled.muscles,
-                          actuation_start=settle, bonds=compiled.native_bonds,
-                          voxel_bodies=compiled.body_ids,
-                          engine_contacts=compiled.engine_contacts)
     return Simulation(compiled.model, scene=scene, muscles=compiled.muscles,
-                      actuation_start=settle)
+                      actuation_start=settle, plugin_instance=compiled.plugin_instance)
 
 
 def simulate(

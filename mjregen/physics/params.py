@@ -28,7 +28,6 @@ WAVEFORMS = ("contract", "symmetric")
 INTEGRATORS = ("euler", "rk4")
 BOND_MODELS = ("timoshenko", "euler_bernoulli")
 CONTACT_SHAPES = ("box", "sphere", "point", "engine")
-BOND_BACKENDS = ("auto", "native", "tendon")
 BOND_ELEMENTS = ("beam", "tendons")
 STEPPERS = ("auto", "native", "mujoco")
 TIMESTEP_RULES = ("network", "stiffest_bond")
@@ -191,12 +190,6 @@ class Scene:
         voxel's half size; the paper engine's collision envelope is 0.625, so its voxels
         repel from a centre distance of 1.25 L). Face, edge and corner neighbours never
         collide (their spheres overlap at rest).
-      damp_strain_rate: the bond dampers act on the rate of a bond's deviation from its
-        actuated rest length, d(l − l₀)/dt, as in the paper engine (its bonds damp the change
-        of "length − current rest length"), instead of on dl/dt, which also resists the
-        muscle's own contraction and re-expansion. Implemented exactly: a force c·dl₀/dt
-        along each driven tendon (one MuJoCo actuator per driven tendon, its control
-        written every step by `Simulation`). No effect on robots without muscles.
       bond_element: how a bond's stiffness is built (the same linear stiffness and damping
         either way, to 1e-5): "beam" (the default: one co-rotated beam element per bond,
         linear in shear, bending and torsion in the bond's mid frame like the paper
@@ -204,13 +197,6 @@ class Scene:
         evaluation; native backend only; docs/fidelity.md, docs/performance.md) or
         "tendons" (8 spatial tendons per 3D bond, 4 in 2D, geometrically exact; the
         default before issue #8, and the model the exported MJCF always contains).
-      bond_backend: how `simulate` computes the bonds' forces (the model is the same):
-        "tendon" (MuJoCo spatial tendons, the exported MJCF), "native" (all bond tendons in
-        one compiled C loop in MuJoCo's passive-force callback, `mjregen.bonds_native`; the
-        same forces, 5–20× faster per step; Euler only; needs a C compiler on first use) or
-        "auto" (the default: native where it builds and the integrator is Euler, else
-        tendon, with a warning in the log). Both give the same motion to ~1e-15 m, not bit
-        for bit (tests/test_native.py).
       stepper: what advances the state each step: "mujoco" (``mj_step``), "native" (MuJoCo's
         Euler step for independent voxel bodies in one C loop, `mjregen.stepping`: the same
         equations with MuJoCo's own mass matrix and gravity, to rounding, about half the
@@ -247,9 +233,7 @@ class Scene:
     contact_stiffness: float | None = 2.0
     contact_damping: float = 0.8
     self_collision: bool = True
-    damp_strain_rate: bool = False
     collision_radius: float = 0.625
-    bond_backend: str = "auto"
     bond_element: str = "beam"
     stepper: str = "auto"
     timestep_rule: str = "network"
@@ -274,7 +258,6 @@ class Scene:
             _check("contact_stiffness", self.contact_stiffness, low=0.0)
         _check("contact_damping", self.contact_damping, low=0.0, low_open=False)
         for name, allowed in (("bond_model", BOND_MODELS), ("contact_shape", CONTACT_SHAPES),
-                              ("bond_backend", BOND_BACKENDS),
                               ("bond_element", BOND_ELEMENTS), ("stepper", STEPPERS),
                               ("timestep_rule", TIMESTEP_RULES)):
             if getattr(self, name) not in allowed:
@@ -287,33 +270,24 @@ class Scene:
             raise PhysicsParameterError(
                 f"integrator must be one of {INTEGRATORS}, got {self.integrator!r} "
                 "(MuJoCo's implicit integrators mis-handle damped tendons between free bodies)")
-        if self.contact_shape == "engine" and self.floor:
-            if self.bond_backend == "tendon" or self.integrator != "euler":
+        if self.contact_shape == "engine":
+            if self.integrator != "euler":
                 raise PhysicsParameterError(
-                    "contact_shape 'engine' is computed by the native bond backend: it needs "
-                    "bond_backend 'native' or 'auto' and the euler integrator")
+                    "contact_shape 'engine' is the voxel plugin's floor, stepped with "
+                    "MuJoCo's Euler integrator: set integrator 'euler'")
             if self.contact_stiffness is None:
                 raise PhysicsParameterError(
                     "contact_shape 'engine' needs contact_stiffness (the engine's floor is a "
                     "penalty spring; the paper's: 2.0 E·L)")
-        if self.bond_element == "beam" and (self.bond_backend == "tendon"
-                                            or self.integrator != "euler"):
+        if self.bond_element == "beam" and self.contact_shape != "engine":
             raise PhysicsParameterError(
-                "bond_element 'beam' is computed by the native bond backend: it needs "
-                "bond_backend 'native' or 'auto' and the euler integrator (or use "
-                "bond_element 'tendons')")
-        if self.stepper == "native" and not (self.bond_backend != "tendon"
-                                             and self.integrator == "euler"
-                                             and self.contact_shape == "engine"):
+                "bond_element 'beam' is computed by the voxel plugin (contact_shape "
+                "'engine'); the pure-MuJoCo pipeline's bonds are bond_element 'tendons'")
+        if self.stepper == "native" and self.contact_shape != "engine":
             raise PhysicsParameterError(
-                "stepper 'native' integrates voxel bodies whose forces all come from the native "
-                "bond loop: it needs bond_backend 'native' or 'auto', the euler integrator and "
-                "contact_shape 'engine' (or use stepper 'auto' or 'mujoco')")
-        if self.bond_backend == "native" and self.integrator != "euler":
-            raise PhysicsParameterError(
-                "bond_backend 'native' supports the euler integrator only (its muscle drive "
-                "is sampled once per step); use bond_backend 'tendon' or 'auto' with rk4")
-        for name in ("floor", "self_collision", "damp_strain_rate"):
+                "stepper 'native' is the fast path of the voxel plugin's model (contact_shape "
+                "'engine'); use stepper 'auto' or 'mujoco'")
+        for name in ("floor", "self_collision"):
             if not isinstance(getattr(self, name), bool):
                 raise PhysicsParameterError(
                     f"{name} must be True or False, got {getattr(self, name)!r}")
@@ -369,6 +343,13 @@ class Physics:
             # ... and before the native stepper: mj_step (same motion to rounding)
             scene.setdefault("stepper", "mujoco")
             scene.setdefault("timestep_rule", "stiffest_bond")  # ... and before "network"
+            # every pipeline computes its bonds one way now: the voxel plugin (contact_shape
+            # "engine") or MuJoCo tendons; the strain-rate drive is gone (never used)
+            scene.pop("bond_backend", None)
+            if scene.pop("damp_strain_rate", False):
+                raise PhysicsParameterError(
+                    "this physics description damps the strain rate (damp_strain_rate), "
+                    "which mjregen no longer models")
             return cls(materials=materials, scene=Scene(**scene))
         except (KeyError, TypeError) as error:
             raise PhysicsParameterError(f"invalid physics description: {error}") from None

@@ -1,0 +1,493 @@
+/* The forces of a soft voxel robot, after the paper's engine (Voxelyze): bonds (one beam
+   element per face bond, or 8 spring tendons), phase-actuated muscles, the engine's floor
+   (penalty spring and damper with static/kinetic friction and a stick state),
+   self-collision and drag. Everything is added to qfrc_passive; MuJoCo (or step.c)
+   integrates. Only the state (qpos, qvel, time, the stick flags) and the instance's
+   configuration are read. */
+#include <math.h>
+#include <string.h>
+
+#include "voxels.h"
+
+#define SW MJR_SCRATCH
+
+/* signed strains (e+, e-) of the two muscle phases at time t */
+static void strains(const mjrVoxels* v, double t, double* ep, double* em) {
+  if (t < v->start) {
+    *ep = 0.0;
+    *em = 0.0;
+    return;
+  }
+  double wave = sin(v->omega * (t - v->start));
+  if (v->contract) {
+    *ep = wave < 0.0 ? wave : 0.0;
+    *em = -wave < 0.0 ? -wave : 0.0;
+  } else {
+    *ep = wave;
+    *em = -wave;
+  }
+}
+
+static inline void cross(const double* a, const double* b, double* out) {
+  out[0] = a[1] * b[2] - a[2] * b[1];
+  out[1] = a[2] * b[0] - a[0] * b[2];
+  out[2] = a[0] * b[1] - a[1] * b[0];
+}
+
+/* frames and velocities of all voxels from qpos/qvel (no MuJoCo kinematics needed) */
+static void voxel_states(const mjrVoxels* v, const mjData* d) {
+  for (int n = 0; n < v->nvox; n++) {
+    double* s = v->scratch + SW * n;
+    double *p = s, *R = s + 3, *vel = s + 12, *w = s + 15;
+    memset(s + 12, 0, 12 * sizeof(double));
+    int qa = v->qadr[n], va = v->vadr[n];
+    if (qa < 0) {
+      memcpy(p, v->pos0 + 3 * n, 3 * sizeof(double));
+      memset(R, 0, 9 * sizeof(double));
+      R[0] = R[4] = R[8] = 1.0;
+      memset(vel, 0, 6 * sizeof(double));
+      s[24] = 1.0;
+      s[25] = s[26] = s[27] = 0.0;
+      continue;
+    }
+    const double* q = d->qpos + qa;
+    const double* qv = d->qvel + va;
+    if (v->dim == 3) {
+      p[0] = q[0];
+      p[1] = q[1];
+      p[2] = q[2];
+      double qw = q[3], qx = q[4], qy = q[5], qz = q[6];
+      double norm = sqrt(qw * qw + qx * qx + qy * qy + qz * qz);
+      if (norm < 1e-15) { /* MuJoCo's mju_normalize4: degenerate -> identity */
+        qw = 1.0;
+        qx = qy = qz = 0.0;
+      } else {
+        qw /= norm;
+        qx /= norm;
+        qy /= norm;
+        qz /= norm;
+      }
+      s[24] = qw;
+      s[25] = qx;
+      s[26] = qy;
+      s[27] = qz;
+      /* mju_quat2Mat */
+      double q00 = qw * qw, q01 = qw * qx, q02 = qw * qy, q03 = qw * qz;
+      double q11 = qx * qx, q12 = qx * qy, q13 = qx * qz;
+      double q22 = qy * qy, q23 = qy * qz, q33 = qz * qz;
+      R[0] = q00 + q11 - q22 - q33;
+      R[4] = q00 - q11 + q22 - q33;
+      R[8] = q00 - q11 - q22 + q33;
+      R[1] = 2 * (q12 - q03);
+      R[2] = 2 * (q13 + q02);
+      R[3] = 2 * (q12 + q03);
+      R[5] = 2 * (q23 - q01);
+      R[6] = 2 * (q13 - q02);
+      R[7] = 2 * (q23 + q01);
+      vel[0] = qv[0];
+      vel[1] = qv[1];
+      vel[2] = qv[2];
+      /* free joint: angular velocity in the body frame, to world */
+      w[0] = R[0] * qv[3] + R[1] * qv[4] + R[2] * qv[5];
+      w[1] = R[3] * qv[3] + R[4] * qv[4] + R[5] * qv[5];
+      w[2] = R[6] * qv[3] + R[7] * qv[4] + R[8] * qv[5];
+    } else {
+      /* slide x, slide z, hinge y at the body origin */
+      const double* p0 = v->pos0 + 3 * n;
+      p[0] = p0[0] + q[0];
+      p[1] = p0[1];
+      p[2] = p0[2] + q[1];
+      double half = 0.5 * q[2];
+      double qw = cos(half), qy = sin(half);
+      s[24] = qw;
+      s[25] = 0.0;
+      s[26] = qy;
+      s[27] = 0.0;
+      double q00 = qw * qw, q02 = qw * qy, q22 = qy * qy;
+      memset(R, 0, 9 * sizeof(double));
+      R[0] = q00 - q22;
+      R[4] = q00 + q22;
+      R[8] = q00 - q22;
+      R[2] = 2 * q02;
+      R[6] = -2 * q02;
+      vel[0] = qv[0];
+      vel[1] = 0.0;
+      vel[2] = qv[1];
+      w[0] = 0.0;
+      w[1] = qv[2];
+      w[2] = 0.0;
+    }
+  }
+}
+
+/* The bond's 8 (3D) or 4 (2D) spring tendons between sites fixed in the two voxels, with
+   stiffness-proportional dampers; a driven bond's tendons have the rest length
+   sqrt(l0^2 + d^2), l0 its actuated axial rest length, d the tendon's lateral extent. */
+static void tendon_bonds(const mjrVoxels* v, double ep, double em) {
+  int t = 0;
+  while (t < v->ntendon) {
+    int bond = v->tendon_bond[t];
+    int i = v->bonds[2 * bond], j = v->bonds[2 * bond + 1];
+    double* si = v->scratch + SW * i;
+    double* sj = v->scratch + SW * j;
+    double pi[3], pj[3], Ri[9], Rj[9], ui[3], uj[3], wi[3], wj[3];
+    memcpy(pi, si, 3 * sizeof(double));
+    memcpy(pj, sj, 3 * sizeof(double));
+    memcpy(Ri, si + 3, 9 * sizeof(double));
+    memcpy(Rj, sj + 3, 9 * sizeof(double));
+    memcpy(ui, si + 12, 3 * sizeof(double));
+    memcpy(uj, sj + 12, 3 * sizeof(double));
+    memcpy(wi, si + 15, 3 * sizeof(double));
+    memcpy(wj, sj + 15, 3 * sizeof(double));
+    double axial = 0.0;
+    int driven = bond < v->ndriven;
+    if (driven) axial = v->voxel_size + v->muscle[2 * bond] * ep + v->muscle[2 * bond + 1] * em;
+    double Fsum[3] = {0.0, 0.0, 0.0}, Ti[3] = {0.0, 0.0, 0.0}, Tj[3] = {0.0, 0.0, 0.0};
+    for (; t < v->ntendon && v->tendon_bond[t] == bond; t++) {
+      const double* oi = v->sites + 6 * t;
+      const double* oj = oi + 3;
+      double ri[3], rj[3], dv[3], vi[3], vj[3], tmp[3];
+      for (int a = 0; a < 3; a++) {
+        ri[a] = Ri[3 * a] * oi[0] + Ri[3 * a + 1] * oi[1] + Ri[3 * a + 2] * oi[2];
+        rj[a] = Rj[3 * a] * oj[0] + Rj[3 * a + 1] * oj[1] + Rj[3 * a + 2] * oj[2];
+      }
+      for (int a = 0; a < 3; a++) dv[a] = (pj[a] + rj[a]) - (pi[a] + ri[a]);
+      double len = sqrt(dv[0] * dv[0] + dv[1] * dv[1] + dv[2] * dv[2]);
+      if (len < 1e-15) continue;
+      double inv = 1.0 / len;
+      double u[3] = {dv[0] * inv, dv[1] * inv, dv[2] * inv};
+      cross(wi, ri, vi);
+      cross(wj, rj, vj);
+      double rate = 0.0;
+      for (int a = 0; a < 3; a++) rate += u[a] * ((uj[a] + vj[a]) - (ui[a] + vi[a]));
+      double rest = driven ? sqrt(axial * axial + v->tlat2[t]) : v->trest[t];
+      double f = -v->tk[t] * (len - rest) - v->tc[t] * rate;
+      double F[3] = {f * u[0], f * u[1], f * u[2]};
+      for (int a = 0; a < 3; a++) Fsum[a] += F[a];
+      cross(rj, F, tmp);
+      for (int a = 0; a < 3; a++) Tj[a] += tmp[a];
+      cross(ri, F, tmp);
+      for (int a = 0; a < 3; a++) Ti[a] -= tmp[a];
+    }
+    for (int a = 0; a < 3; a++) {
+      sj[18 + a] += Fsum[a];
+      si[18 + a] -= Fsum[a];
+      sj[21 + a] += Tj[a];
+      si[21 + a] += Ti[a];
+    }
+  }
+}
+
+/* v^T R (= R^T v): a world vector into the frame of rotation R (row-major) */
+static inline void to_frame(const double* R, const double* x, double* out) {
+  out[0] = R[0] * x[0] + R[3] * x[1] + R[6] * x[2];
+  out[1] = R[1] * x[0] + R[4] * x[1] + R[7] * x[2];
+  out[2] = R[2] * x[0] + R[5] * x[1] + R[8] * x[2];
+}
+
+/* Beam bonds: one co-rotated beam element per face bond, with the linear stiffness of the
+   bond's calibrated tendons (axial k_a, transverse k_s, bending k_b, torsion k_t) and
+   stiffness-proportional damping C = beta K. It works in the bond's mid frame
+   M = R_i exp(Delta/2) (symmetric in i and j), with Delta the rotation vector of q_i^-1 q_j;
+   there the nodes' rotations are -Delta/2 and +Delta/2, so the symmetric (shear) rotation
+   vanishes. With e the bond's rest axis and d = M^T (p_j - p_i):
+     transverse (Hookean, like the paper engine's beam):  F_j,perp = -k_s d_perp
+     axial (the tendons' own law, stiffening in tension): F_j.e = -k0 (l - l0)
+        - kd (s - s0) l / s,  l = d.e, s = sqrt(l^2 + D^2), s0 = sqrt(l0^2 + D^2)
+     B = k_b Delta_perp + k_t (Delta.e) e
+     F_i = -F_j,  T_i = -(d x F_j)/2 + B,  T_j = -(d x F_j)/2 - B,
+   each displacement plus beta times its rate (rates in the frame turning with the mean
+   angular velocity; the axial damping linear, beta k_a). Linearised this is the
+   Euler-Bernoulli (k_s = E L) or Timoshenko (k_s = G L) beam of the tendons; momentum and
+   angular momentum are conserved exactly (T_i + T_j + d x F_j = 0). */
+static void beam_bonds(const mjrVoxels* v, double ep, double em) {
+  double L = v->voxel_size;
+  for (int n = 0; n < v->nbond; n++) {
+    int i = v->bonds[2 * n], j = v->bonds[2 * n + 1], axis = v->axis[n];
+    double *si = v->scratch + SW * i, *sj = v->scratch + SW * j;
+    const double *qi = si + 24, *qj = sj + 24;
+    const double* k = v->stiffness + 4 * n;
+    double beta = v->beta[n];
+    /* r = q_i^-1 q_j on the short way round, its rotation vector Delta, its half h */
+    double rw = qi[0] * qj[0] + qi[1] * qj[1] + qi[2] * qj[2] + qi[3] * qj[3];
+    double rv[3] = {qi[0] * qj[1] - qj[0] * qi[1] - (qi[2] * qj[3] - qi[3] * qj[2]),
+                    qi[0] * qj[2] - qj[0] * qi[2] - (qi[3] * qj[1] - qi[1] * qj[3]),
+                    qi[0] * qj[3] - qj[0] * qi[3] - (qi[1] * qj[2] - qi[2] * qj[1])};
+    if (rw < 0.0) {
+      rw = -rw;
+      rv[0] = -rv[0];
+      rv[1] = -rv[1];
+      rv[2] = -rv[2];
+    }
+    double s2 = rv[0] * rv[0] + rv[1] * rv[1] + rv[2] * rv[2];
+    /* angle = 2 asin(|v|): 2 asin(s)/s to 1e-7 for s < 0.3 (35-degree bends), exact above */
+    double gain;
+    if (s2 < 0.09) {
+      gain = 2.0 + s2 * (1.0 / 3.0 + s2 * (0.15 + s2 * (5.0 / 56.0 + s2 * 35.0 / 576.0)));
+    } else {
+      double sn = sqrt(s2);
+      gain = 2.0 * asin(sn < 1.0 ? sn : 1.0) / sn;
+    }
+    double hn = 1.0 / sqrt((1.0 + rw) * (1.0 + rw) + s2);
+    double hw = (1.0 + rw) * hn, hv[3] = {rv[0] * hn, rv[1] * hn, rv[2] * hn};
+    /* mid frame q_m = q_i h as a rotation matrix (mju_quat2Mat) */
+    double mw = qi[0] * hw - qi[1] * hv[0] - qi[2] * hv[1] - qi[3] * hv[2];
+    double mx = qi[0] * hv[0] + qi[1] * hw + qi[2] * hv[2] - qi[3] * hv[1];
+    double my = qi[0] * hv[1] + qi[2] * hw + qi[3] * hv[0] - qi[1] * hv[2];
+    double mz = qi[0] * hv[2] + qi[3] * hw + qi[1] * hv[1] - qi[2] * hv[0];
+    double M[9];
+    M[0] = mw * mw + mx * mx - my * my - mz * mz;
+    M[4] = mw * mw - mx * mx + my * my - mz * mz;
+    M[8] = mw * mw - mx * mx - my * my + mz * mz;
+    M[1] = 2 * (mx * my - mw * mz);
+    M[2] = 2 * (mx * mz + mw * my);
+    M[3] = 2 * (mx * my + mw * mz);
+    M[5] = 2 * (my * mz - mw * mx);
+    M[6] = 2 * (mx * mz - mw * my);
+    M[7] = 2 * (my * mz + mw * mx);
+    double dw[3], uw[3], ww[3], wm[3];
+    for (int a = 0; a < 3; a++) {
+      dw[a] = sj[a] - si[a];
+      ww[a] = sj[15 + a] - si[15 + a];
+      wm[a] = 0.5 * (sj[15 + a] + si[15 + a]);
+    }
+    /* velocity of j relative to i as seen in the mid frame: v_j - v_i - w_m x d */
+    cross(wm, dw, uw);
+    for (int a = 0; a < 3; a++) uw[a] = sj[12 + a] - si[12 + a] - uw[a];
+    double d[3], dd[3], dD[3];
+    to_frame(M, dw, d);
+    to_frame(M, uw, dd);
+    to_frame(M, ww, dD);
+    double rest = L;
+    if (n < v->ndriven) rest += v->muscle[2 * n] * ep + v->muscle[2 * n + 1] * em;
+    double F[3], B[3], Ti[3], Tj[3], dF[3];
+    for (int a = 0; a < 3; a++) {
+      double rot = gain * rv[a] + beta * dD[a];
+      F[a] = a == axis ? 0.0 : -k[1] * (d[a] + beta * dd[a]);
+      B[a] = (a == axis ? k[3] : k[2]) * rot;
+    }
+    /* axial: the tendons' own law along the axis, l = d[axis]; damping linear */
+    const double* law = v->law + 3 * n;
+    double l = d[axis], lat2 = law[2];
+    double s_now = sqrt(l * l + lat2), s_rest = sqrt(rest * rest + lat2);
+    F[axis] = -law[0] * (l - rest) - beta * k[0] * dd[axis];
+    if (s_now > 0.0) F[axis] -= law[1] * (s_now - s_rest) * l / s_now;
+    cross(d, F, dF);
+    for (int a = 0; a < 3; a++) {
+      Ti[a] = -0.5 * dF[a] + B[a];
+      Tj[a] = -0.5 * dF[a] - B[a];
+    }
+    /* back to world: M x */
+    for (int a = 0; a < 3; a++) {
+      double f = M[3 * a] * F[0] + M[3 * a + 1] * F[1] + M[3 * a + 2] * F[2];
+      sj[18 + a] += f;
+      si[18 + a] -= f;
+      si[21 + a] += M[3 * a] * Ti[0] + M[3 * a + 1] * Ti[1] + M[3 * a + 2] * Ti[2];
+      sj[21 + a] += M[3 * a] * Tj[0] + M[3 * a + 1] * Tj[1] + M[3 * a + 2] * Tj[2];
+    }
+  }
+}
+
+/* Drag on every voxel (the paper engine's "slow" damping): -drag_lin v on the centre and
+   -drag_rot w (MuJoCo's Stokes drag of a cube). */
+static void voxel_drag(const mjrVoxels* v) {
+  for (int n = 0; n < v->nvox; n++) {
+    if (v->vadr[n] < 0) continue;
+    double* s = v->scratch + SW * n;
+    for (int a = 0; a < 3; a++) {
+      s[18 + a] -= v->drag_lin * s[12 + a];
+      s[21 + a] -= v->drag_rot * s[15 + a];
+    }
+  }
+}
+
+static inline int grid_neighbours(const int* gi, const int* gj) {
+  for (int a = 0; a < 3; a++) {
+    int d = gi[a] - gj[a];
+    if (d > 1 || d < -1) return 0;
+  }
+  return 1;
+}
+
+/* Self-collision as the paper engine: colliding voxels that are not grid neighbours repel as
+   spheres of radius coll_radius times their current linear scale (muscle strain), with a
+   penalty spring and damper along the centre line, each the harmonic mean of the two
+   voxels' floor constants; repulsion only, no friction, no moment. Candidates come from a
+   Verlet list rebuilt whenever a voxel has moved more than half the skin since the last
+   build, so no touching pair is ever missed (a cache: the forces do not depend on it). */
+static void self_collision(mjrVoxels* v, double ep, double em) {
+  int n = v->nvox;
+  double half_skin2 = 0.25 * v->coll_skin * v->coll_skin;
+  int rebuild = !v->coll_built;
+  for (int i = 0; i < n && !rebuild; i++) {
+    if (!v->collides[i]) continue;
+    const double* p = v->scratch + SW * i;
+    const double* r = v->coll_ref + 3 * i;
+    double dx = p[0] - r[0], dy = p[1] - r[1], dz = p[2] - r[2];
+    if (dx * dx + dy * dy + dz * dz > half_skin2) rebuild = 1;
+  }
+  if (rebuild) {
+    double cut = v->coll_reach + v->coll_skin, cut2 = cut * cut;
+    int found = 0;
+    for (int i = 0; i < n; i++) {
+      if (!v->collides[i]) continue;
+      const double* pi = v->scratch + SW * i;
+      for (int j = i + 1; j < n; j++) {
+        if (!v->collides[j] || grid_neighbours(v->grid + 3 * i, v->grid + 3 * j)) continue;
+        const double* pj = v->scratch + SW * j;
+        double dx = pj[0] - pi[0], dy = pj[1] - pi[1], dz = pj[2] - pi[2];
+        if (dx * dx + dy * dy + dz * dz < cut2) {
+          v->coll_pairs[2 * found] = i;
+          v->coll_pairs[2 * found + 1] = j;
+          found++;
+        }
+      }
+    }
+    for (int i = 0; i < n; i++) memcpy(v->coll_ref + 3 * i, v->scratch + SW * i, 3 * sizeof(double));
+    v->coll_count = found;
+    v->coll_built = 1;
+  }
+  double two_over_l = 2.0 / v->voxel_size;
+  for (int k = 0; k < v->coll_count; k++) {
+    int i = v->coll_pairs[2 * k], j = v->coll_pairs[2 * k + 1];
+    double *si = v->scratch + SW * i, *sj = v->scratch + SW * j;
+    double d[3] = {sj[0] - si[0], sj[1] - si[1], sj[2] - si[2]};
+    double dist2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+    double scale_i = 1.0 + two_over_l * (v->half_p[i] * ep + v->half_m[i] * em);
+    double scale_j = 1.0 + two_over_l * (v->half_p[j] * ep + v->half_m[j] * em);
+    double contact = v->coll_radius * (scale_i + scale_j);
+    if (dist2 >= contact * contact || dist2 <= 0.0) continue;
+    double dist = sqrt(dist2);
+    double u[3] = {d[0] / dist, d[1] / dist, d[2] / dist};
+    double closing = 0.0;
+    for (int a = 0; a < 3; a++) closing += u[a] * (sj[12 + a] - si[12 + a]);
+    double k_pair = 2.0 / (1.0 / v->fk[i] + 1.0 / v->fk[j]);
+    double c_pair = 2.0 / (1.0 / v->fc[i] + 1.0 / v->fc[j]);
+    double f = k_pair * (contact - dist) - c_pair * closing;
+    if (f <= 0.0) continue;
+    for (int a = 0; a < 3; a++) {
+      sj[18 + a] += f * u[a];
+      si[18 + a] -= f * u[a];
+    }
+  }
+}
+
+/* m/s: a sticking voxel's horizontal speed is zeroed every step (to ~1e-20); faster means an
+   outside impulse (someone wrote qvel), which releases it */
+#define KICKED 1e-9
+
+/* The paper engine's floor (Voxelyze CVX_Voxel::floorForce and the friction part of
+   timeStep). Per voxel touching the floor (centre below its current half size, which
+   shrinks with the voxel's own muscle strain): normal force k pen - c vz on the centre (no
+   moment; the damper may pull); friction from the spring part N = k pen: a sticking voxel
+   stays put (its horizontal velocity is cancelled within the step) until the other
+   horizontal forces exceed mu_s N; a sliding one feels mu_k N against its horizontal
+   velocity and sticks when that would stop it within the step (the engine's work-energy
+   test). The other horizontal forces: bonds, drag and self-collision (in scratch),
+   MuJoCo's own passive forces, qfrc_applied, xfrc_applied and gravity (a voxel's centre of
+   mass is at its joint, so no other bias force acts on its translation). */
+static void engine_floor(const mjModel* m, const mjData* d, mjrVoxels* v, const double* stick,
+                         double ep, double em) {
+  int planar = v->dim == 3;
+  const double* gravity = m->opt.gravity;
+  double dt = m->opt.timestep;
+  for (int n = 0; n < v->nvox; n++) {
+    int va = v->vadr[n];
+    if (va < 0) continue;
+    double* s = v->scratch + SW * n;
+    double* next = v->stick_next + n;
+    double half = 0.5 * v->voxel_size + v->half_p[n] * ep + v->half_m[n] * em;
+    double pen = half - s[2];
+    if (pen < 0.0) {
+      *next = 0.0;
+      continue;
+    }
+    const double* vel = s + 12;
+    double* F = s + 18;
+    const double* xfrc = d->xfrc_applied + 6 * v->body[n];
+    double normal = v->fk[n] * pen;
+    F[2] += normal - v->fc[n] * vel[2];
+    double mass = m->body_mass[v->body[n]];
+    double other[2] = {F[0] + d->qfrc_passive[va] + d->qfrc_applied[va] + xfrc[0]
+                         + mass * gravity[0],
+                       planar ? F[1] + d->qfrc_passive[va + 1] + d->qfrc_applied[va + 1]
+                                  + xfrc[1] + mass * gravity[1] : 0.0};
+    double vh[2] = {vel[0], planar ? vel[1] : 0.0};
+    double stop[2] = {-other[0] - mass * vh[0] / dt, -other[1] - mass * vh[1] / dt};
+    int sticking = stick[n] != 0.0 && vh[0] * vh[0] + vh[1] * vh[1] <= KICKED * KICKED;
+    if (sticking) {
+      double limit = v->mu_s[n] * normal;
+      if (other[0] * other[0] + other[1] * other[1] > limit * limit) {
+        *next = 0.0; /* breaks loose: this step's forces start the motion, no friction */
+      } else {
+        *next = 1.0;
+        F[0] += stop[0];
+        F[1] += stop[1];
+      }
+      continue;
+    }
+    double speed = sqrt(vh[0] * vh[0] + vh[1] * vh[1]);
+    double fric[2] = {0.0, 0.0};
+    if (speed > 0.0) {
+      fric[0] = -v->mu_k[n] * normal * vh[0] / speed;
+      fric[1] = -v->mu_k[n] * normal * vh[1] / speed;
+    }
+    /* momentum after this step, the step's displacement, and the engine's stop test */
+    double p0 = mass * vh[0] + dt * (other[0] + fric[0]);
+    double p1 = mass * vh[1] + dt * (other[1] + fric[1]);
+    double work = (fric[0] * p0 + fric[1] * p1) * dt / mass;
+    double kinetic = 0.5 * (p0 * p0 + p1 * p1) / mass;
+    if (kinetic + work <= 0.0) {
+      *next = 1.0;
+      F[0] += stop[0];
+      F[1] += stop[1];
+    } else {
+      *next = 0.0;
+      F[0] += fric[0];
+      F[1] += fric[1];
+    }
+  }
+}
+
+void mjr_forces(const mjModel* m, mjData* d, mjrVoxels* v, const mjtNum* stick, int network) {
+  voxel_states(v, d);
+  double ep = 0.0, em = 0.0;
+  if (v->waves && !network) {
+    if (v->ctrl_plus >= 0) {
+      ep = d->ctrl[v->ctrl_plus];
+      em = d->ctrl[v->ctrl_minus];
+    } else {
+      double dt = m->opt.timestep;
+      strains(v, floor(d->time / dt + 0.5) * dt, &ep, &em);
+    }
+  }
+  memcpy(v->stick_next, stick, v->nvox * sizeof(double));
+  if (v->beams) {
+    beam_bonds(v, ep, em);
+  } else {
+    tendon_bonds(v, ep, em);
+  }
+  if (!network) {
+    if (v->drag_lin > 0.0 || v->drag_rot > 0.0) voxel_drag(v);
+    if (v->collide) self_collision(v, ep, em);
+    if (v->floor) engine_floor(m, d, v, stick, ep, em);
+  }
+  double* qfrc = d->qfrc_passive;
+  for (int n = 0; n < v->nvox; n++) {
+    int va = v->vadr[n];
+    if (va < 0) continue;
+    const double* s = v->scratch + SW * n;
+    const double *R = s + 3, *F = s + 18, *T = s + 21;
+    if (v->dim == 3) {
+      qfrc[va] += F[0];
+      qfrc[va + 1] += F[1];
+      qfrc[va + 2] += F[2];
+      /* torque into the body frame: R^T T */
+      for (int a = 0; a < 3; a++) qfrc[va + 3 + a] += R[a] * T[0] + R[3 + a] * T[1] + R[6 + a] * T[2];
+    } else {
+      qfrc[va] += F[0];
+      qfrc[va + 1] += F[2];
+      qfrc[va + 2] += T[1];
+    }
+  }
+}

@@ -1,0 +1,405 @@
+/* The "mjregen.voxels" engine plugin: registration, configuration and lifecycle.
+
+   Like MuJoCo's own plugins (plugin/elasticity), configuration attributes are read once per
+   mjData in `init`, the state (each voxel's floor stick flag) lives in plugin_state, and the
+   forces are added to qfrc_passive in `compute` (forces.c). `compute` decides the stick flags
+   for the end of the step without touching the state; `advance` (called by mj_step after
+   the integration) makes them the state, so mj_forward has no side effect.
+*/
+#include <errno.h>
+#include <math.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "voxels.h"
+
+#define MJR_NAME_STRING(name) #name,
+static const char* attributes[] = {MJR_ATTRIBUTES(MJR_NAME_STRING)};
+
+static int plugin_slot = -1;
+
+/* name of configuration attribute i, or NULL past the last (Python checks its keys) */
+const char* mjr_attribute(int i) {
+  return i >= 0 && i < MJR_NATTRIBUTE ? attributes[i] : NULL;
+}
+
+static const char* config(const mjModel* m, int instance, const char* key) {
+  const char* value = mj_getPluginConfig(m, instance, key);
+  return value ? value : "";
+}
+
+static int count_tokens(const char* s) {
+  int n = 0, in = 0;
+  for (; *s; s++) {
+    int space = *s == ' ' || *s == '\t' || *s == '\n' || *s == '\r';
+    if (!space && !in) n++;
+    in = !space;
+  }
+  return n;
+}
+
+/* Parse exactly `n` numbers of attribute `key` into a new array; on error write a message
+   into `error` and return NULL. n = 0 gives a non-NULL empty array. */
+static double* parse_doubles(const mjModel* m, int instance, const char* key, int n,
+                             char* error, int error_sz) {
+  const char* s = config(m, instance, key);
+  int found = count_tokens(s);
+  if (found != n) {
+    snprintf(error, error_sz, "mjregen.voxels: attribute '%s' has %d numbers, needs %d", key,
+             found, n);
+    return NULL;
+  }
+  double* out = (double*)calloc(n > 0 ? n : 1, sizeof(double));
+  char* end = NULL;
+  for (int i = 0; i < n; i++) {
+    errno = 0;
+    out[i] = strtod(s, &end);
+    if (end == s || errno == ERANGE || !isfinite(out[i])) {
+      snprintf(error, error_sz, "mjregen.voxels: attribute '%s': entry %d is not a finite "
+               "number", key, i);
+      free(out);
+      return NULL;
+    }
+    s = end;
+  }
+  return out;
+}
+
+static int* parse_ints(const mjModel* m, int instance, const char* key, int n, int low,
+                       int high, char* error, int error_sz) {
+  double* values = parse_doubles(m, instance, key, n, error, error_sz);
+  if (!values) return NULL;
+  int* out = (int*)calloc(n > 0 ? n : 1, sizeof(int));
+  for (int i = 0; i < n; i++) {
+    if (values[i] != floor(values[i]) || values[i] < low || values[i] > high) {
+      snprintf(error, error_sz, "mjregen.voxels: attribute '%s': entry %d is %g, needs an "
+               "integer in [%d, %d]", key, i, values[i], low, high);
+      free(values);
+      free(out);
+      return NULL;
+    }
+    out[i] = (int)values[i];
+  }
+  free(values);
+  return out;
+}
+
+static double parse_scalar(const mjModel* m, int instance, const char* key, int* ok,
+                           char* error, int error_sz) {
+  double* value = parse_doubles(m, instance, key, 1, error, error_sz);
+  if (!value) {
+    *ok = 0;
+    return 0.0;
+  }
+  double out = *value;
+  free(value);
+  return out;
+}
+
+static void release(mjrVoxels* v) {
+  if (!v) return;
+  void* arrays[] = {v->qadr, v->vadr, v->body, v->pos0, v->half_p, v->half_m, v->bonds,
+                    v->axis, v->muscle, v->stiffness, v->law, v->beta, v->tendon_bond,
+                    v->sites, v->tk, v->tc, v->trest, v->tlat2, v->fk, v->fc, v->mu_s,
+                    v->mu_k, v->grid, v->collides, v->scratch, v->stick_next, v->coll_ref,
+                    v->coll_pairs};
+  for (size_t i = 0; i < sizeof(arrays) / sizeof(arrays[0]); i++) free(arrays[i]);
+  free(v);
+}
+
+/* Resolve the voxels' bodies and joints. */
+static int bind_bodies(const mjModel* m, int instance, mjrVoxels* v, char* error,
+                       int error_sz) {
+  const char* names = config(m, instance, "voxels");
+  v->qadr = (int*)calloc(v->nvox + 1, sizeof(int));
+  v->vadr = (int*)calloc(v->nvox + 1, sizeof(int));
+  v->body = (int*)calloc(v->nvox + 1, sizeof(int));
+  v->pos0 = (double*)calloc(3 * v->nvox + 1, sizeof(double));
+  char name[256];
+  for (int i = 0; i < v->nvox; i++) {
+    while (*names == ' ' || *names == '\n' || *names == '\t' || *names == '\r') names++;
+    int len = 0;
+    while (names[len] && names[len] != ' ' && names[len] != '\n' && names[len] != '\t'
+           && names[len] != '\r') len++;
+    if (len >= (int)sizeof(name)) len = sizeof(name) - 1;
+    memcpy(name, names, len);
+    name[len] = 0;
+    names += len;
+    int body = mj_name2id(m, mjOBJ_BODY, name);
+    if (body <= 0) {
+      snprintf(error, error_sz, "mjregen.voxels: voxel %d names body '%s', which the model "
+               "does not have", i, name);
+      return 0;
+    }
+    v->body[i] = body;
+    memcpy(v->pos0 + 3 * i, m->body_pos + 3 * body, 3 * sizeof(double));
+    int njnt = m->body_jntnum[body], j = m->body_jntadr[body];
+    if (njnt == 0) {
+      v->qadr[i] = v->vadr[i] = -1;
+      continue;
+    }
+    int ok = v->dim == 3 ? njnt == 1 && m->jnt_type[j] == mjJNT_FREE
+                         : njnt == 3 && m->jnt_type[j] == mjJNT_SLIDE
+                           && m->jnt_type[j + 1] == mjJNT_SLIDE && m->jnt_type[j + 2] == mjJNT_HINGE;
+    if (!ok) {
+      snprintf(error, error_sz, "mjregen.voxels: body '%s' needs %s", name,
+               v->dim == 3 ? "one free joint" : "slide x, slide z, hinge y joints");
+      return 0;
+    }
+    v->qadr[i] = m->jnt_qposadr[j];
+    v->vadr[i] = m->jnt_dofadr[j];
+  }
+  return 1;
+}
+
+/* The instance's configuration, parsed; NULL with a message in `error` on bad input. */
+static mjrVoxels* configure(const mjModel* m, int instance, char* error, int error_sz) {
+  mjrVoxels* v = (mjrVoxels*)calloc(1, sizeof(mjrVoxels));
+  int ok = 1;
+  v->dim = (int)parse_scalar(m, instance, "dim", &ok, error, error_sz);
+  if (ok && v->dim != 2 && v->dim != 3) {
+    snprintf(error, error_sz, "mjregen.voxels: dim must be 2 or 3, got %d", v->dim);
+    ok = 0;
+  }
+  if (ok) v->voxel_size = parse_scalar(m, instance, "voxel_size", &ok, error, error_sz);
+  if (ok && !(v->voxel_size > 0)) {
+    snprintf(error, error_sz, "mjregen.voxels: voxel_size must be > 0");
+    ok = 0;
+  }
+  if (ok) v->omega = 2.0 * mjPI * parse_scalar(m, instance, "frequency", &ok, error, error_sz);
+  if (ok) v->start = parse_scalar(m, instance, "start", &ok, error, error_sz);
+  if (ok) {
+    const char* waveform = config(m, instance, "waveform");
+    if (!strcmp(waveform, "contract")) {
+      v->contract = 1;
+    } else if (strcmp(waveform, "symmetric")) {
+      snprintf(error, error_sz, "mjregen.voxels: waveform must be 'contract' or 'symmetric', "
+               "got '%s'", waveform);
+      ok = 0;
+    }
+  }
+  v->ctrl_plus = v->ctrl_minus = -1;
+  if (ok) {
+    const char* drive = config(m, instance, "drive");
+    if (!strcmp(drive, "ctrl")) {
+      v->ctrl_plus = mj_name2id(m, mjOBJ_ACTUATOR, "muscle_plus");
+      v->ctrl_minus = mj_name2id(m, mjOBJ_ACTUATOR, "muscle_minus");
+      if (v->ctrl_plus < 0 || v->ctrl_minus < 0) {
+        snprintf(error, error_sz, "mjregen.voxels: drive 'ctrl' needs the actuators "
+                 "'muscle_plus' and 'muscle_minus'");
+        ok = 0;
+      }
+    } else if (strcmp(drive, "waveform")) {
+      snprintf(error, error_sz, "mjregen.voxels: drive must be 'waveform' or 'ctrl', got '%s'",
+               drive);
+      ok = 0;
+    }
+  }
+  if (ok) {
+    const char* element = config(m, instance, "element");
+    if (!strcmp(element, "beam")) {
+      v->beams = 1;
+    } else if (strcmp(element, "tendons")) {
+      snprintf(error, error_sz, "mjregen.voxels: element must be 'beam' or 'tendons', got "
+               "'%s'", element);
+      ok = 0;
+    }
+  }
+  if (!ok) {
+    release(v);
+    return NULL;
+  }
+  v->nvox = count_tokens(config(m, instance, "voxels"));
+  v->nbond = count_tokens(config(m, instance, "bond_axis"));
+  v->ntendon = v->beams ? 0 : count_tokens(config(m, instance, "tendon_bond"));
+  int n = v->nvox, nb = v->nbond, nt = v->ntendon;
+  if (n == 0) {
+    snprintf(error, error_sz, "mjregen.voxels: the robot has no voxels ('voxels' is empty)");
+    release(v);
+    return NULL;
+  }
+#define DOUBLES(field, key, count) \
+  if (ok && !(v->field = parse_doubles(m, instance, key, count, error, error_sz))) ok = 0;
+#define INTS(field, key, count, low, high) \
+  if (ok && !(v->field = parse_ints(m, instance, key, count, low, high, error, error_sz))) ok = 0;
+  ok = bind_bodies(m, instance, v, error, error_sz);
+  double *phase = NULL, *strain = NULL;
+  if (ok && !(phase = parse_doubles(m, instance, "phase", n, error, error_sz))) ok = 0;
+  if (ok && !(strain = parse_doubles(m, instance, "strain", n, error, error_sz))) ok = 0;
+  if (ok) {
+    v->half_p = (double*)calloc(n, sizeof(double));
+    v->half_m = (double*)calloc(n, sizeof(double));
+    for (int i = 0; i < n; i++) {
+      double half = 0.5 * v->voxel_size * strain[i];
+      if (phase[i] > 0) v->half_p[i] = half;
+      if (phase[i] < 0) v->half_m[i] = half;
+      if (phase[i] != 0 && strain[i] != 0) v->waves = 1;
+    }
+  }
+  free(phase);
+  free(strain);
+  INTS(bonds, "bonds", 2 * nb, 0, n - 1)
+  INTS(axis, "bond_axis", nb, 0, 2)
+  DOUBLES(muscle, "bond_muscle", 2 * nb)
+  if (ok) {
+    /* driven bonds come first: count them, check the rest are passive */
+    while (v->ndriven < nb && (v->muscle[2 * v->ndriven] != 0 || v->muscle[2 * v->ndriven + 1] != 0))
+      v->ndriven++;
+    for (int b = v->ndriven; b < nb && ok; b++) {
+      if (v->muscle[2 * b] != 0 || v->muscle[2 * b + 1] != 0) {
+        snprintf(error, error_sz, "mjregen.voxels: bond %d is driven but follows passive "
+                 "bonds; driven bonds come first", b);
+        ok = 0;
+      }
+    }
+    for (int b = 0; b < 2 * nb; b++) v->muscle[b] *= v->voxel_size;
+    if (v->ndriven) v->waves = 1;
+  }
+  if (v->beams) {
+    DOUBLES(stiffness, "bond_stiffness", 4 * nb)
+    DOUBLES(law, "bond_axial_law", 3 * nb)
+    DOUBLES(beta, "bond_beta", nb)
+  } else {
+    INTS(tendon_bond, "tendon_bond", nt, 0, nb - 1)
+    DOUBLES(sites, "tendon_sites", 6 * nt)
+    DOUBLES(tk, "tendon_stiffness", nt)
+    DOUBLES(tc, "tendon_damping", nt)
+    DOUBLES(trest, "tendon_rest", nt)
+    DOUBLES(tlat2, "tendon_lateral2", nt)
+    for (int t = 1; t < nt && ok; t++) {
+      if (v->tendon_bond[t] < v->tendon_bond[t - 1]) {
+        snprintf(error, error_sz, "mjregen.voxels: tendon %d: a bond's tendons must be "
+                 "consecutive, in bond order", t);
+        ok = 0;
+      }
+    }
+  }
+  if (ok) v->floor = (int)parse_scalar(m, instance, "floor", &ok, error, error_sz);
+  DOUBLES(fk, "floor_stiffness", n)
+  DOUBLES(fc, "floor_damping", n)
+  DOUBLES(mu_s, "static_friction", n)
+  DOUBLES(mu_k, "kinetic_friction", n)
+  if (ok) v->coll_radius = parse_scalar(m, instance, "collision_radius", &ok, error, error_sz);
+  if (ok) v->coll_skin = parse_scalar(m, instance, "collision_skin", &ok, error, error_sz);
+  INTS(grid, "grid", 3 * n, -1000000, 1000000)
+  INTS(collides, "collides", n, 0, 1)
+  if (ok) v->drag_lin = parse_scalar(m, instance, "drag_linear", &ok, error, error_sz);
+  if (ok) v->drag_rot = parse_scalar(m, instance, "drag_rotational", &ok, error, error_sz);
+#undef DOUBLES
+#undef INTS
+  if (!ok) {
+    release(v);
+    return NULL;
+  }
+  int colliders = 0;
+  double largest = 0.0;
+  for (int i = 0; i < n; i++) {
+    colliders += v->collides[i];
+    if (v->half_p[i] > largest) largest = v->half_p[i];
+    if (v->half_m[i] > largest) largest = v->half_m[i];
+  }
+  v->collide = v->coll_radius > 0 && colliders > 1;
+  v->coll_reach = 2.0 * v->coll_radius * (1.0 + 2.0 * largest / v->voxel_size);
+  v->scratch = (double*)calloc((size_t)MJR_SCRATCH * n, sizeof(double));
+  v->stick_next = (double*)calloc(n, sizeof(double));
+  v->coll_ref = (double*)calloc(3 * n, sizeof(double));
+  v->coll_pairs = (int*)calloc(v->collide ? (size_t)colliders * (colliders - 1) : 2, sizeof(int));
+  return v;
+}
+
+mjrVoxels* mjr_instance(const mjModel* m, const mjData* d, int instance) {
+  if (instance < 0 || instance >= m->nplugin || m->plugin[instance] != plugin_slot) return NULL;
+  return (mjrVoxels*)d->plugin_data[instance];
+}
+
+static int nstate(const mjModel* m, int instance) {
+  return count_tokens(config(m, instance, "voxels"));
+}
+
+static int init(const mjModel* m, mjData* d, int instance) {
+  char error[512] = "";
+  mjrVoxels* v = configure(m, instance, error, sizeof(error));
+  if (!v) mju_error("%s", error);
+  d->plugin_data[instance] = (uintptr_t)v;
+  return 0;
+}
+
+static void destroy(mjData* d, int instance) {
+  release((mjrVoxels*)d->plugin_data[instance]);
+  d->plugin_data[instance] = 0;
+}
+
+static void copy(mjData* dest, const mjModel* m, const mjData* src, int instance) {
+  (void)src;
+  char error[512] = "";
+  mjrVoxels* v = configure(m, instance, error, sizeof(error));
+  if (!v) mju_error("%s", error);
+  dest->plugin_data[instance] = (uintptr_t)v;
+}
+
+static void reset(const mjModel* m, mjtNum* plugin_state, void* plugin_data, int instance) {
+  mjrVoxels* v = (mjrVoxels*)plugin_data;
+  int n = nstate(m, instance);
+  memset(plugin_state, 0, n * sizeof(mjtNum));
+  if (v) {
+    memset(v->stick_next, 0, n * sizeof(double));
+    v->coll_built = 0;
+  }
+}
+
+static void compute(const mjModel* m, mjData* d, int instance, int capability_bit) {
+  (void)capability_bit;
+  mjrVoxels* v = (mjrVoxels*)d->plugin_data[instance];
+  mjr_forces(m, d, v, d->plugin_state + m->plugin_stateadr[instance], 0);
+}
+
+void mjr_advance(const mjModel* m, mjData* d, int instance) {
+  mjrVoxels* v = (mjrVoxels*)d->plugin_data[instance];
+  memcpy(d->plugin_state + m->plugin_stateadr[instance], v->stick_next,
+         v->nvox * sizeof(mjtNum));
+}
+
+/* the bonds as lines between voxel centres, when tendons are shown */
+static void visualize(const mjModel* m, mjData* d, const mjvOption* opt, mjvScene* scn,
+                      int instance) {
+  (void)m;
+  mjrVoxels* v = (mjrVoxels*)d->plugin_data[instance];
+  if (!v || !opt->flags[mjVIS_TENDON]) return;
+  const float rgba[4] = {0.15f, 0.15f, 0.15f, 1.0f};
+  for (int b = 0; b < v->nbond && scn->ngeom < scn->maxgeom; b++) {
+    mjvGeom* g = scn->geoms + scn->ngeom;
+    mjv_initGeom(g, mjGEOM_LINE, NULL, NULL, NULL, rgba);
+    mjv_connector(g, mjGEOM_LINE, 2.0, d->xpos + 3 * v->body[v->bonds[2 * b]],
+                  d->xpos + 3 * v->body[v->bonds[2 * b + 1]]);
+    g->category = mjCAT_DECOR;
+    scn->ngeom++;
+  }
+}
+
+/* Bond forces only (no muscles, floor, self-collision, drag) at d's qpos/qvel, into
+   d->qfrc_passive (zeroed first): the network whose stability limit sets the time step. */
+void mjr_network_forces(const mjModel* m, mjData* d, int instance) {
+  mjrVoxels* v = mjr_instance(m, d, instance);
+  mju_zero(d->qfrc_passive, m->nv);
+  if (v) mjr_forces(m, d, v, d->plugin_state + m->plugin_stateadr[instance], 1);
+}
+
+mjPLUGIN_LIB_INIT(mjregen_voxels) {
+  mjpPlugin plugin;
+  mjp_defaultPlugin(&plugin);
+  plugin.name = "mjregen.voxels";
+  plugin.capabilityflags |= mjPLUGIN_PASSIVE;
+  plugin.nattribute = MJR_NATTRIBUTE;
+  plugin.attributes = attributes;
+  plugin.nstate = nstate;
+  plugin.init = init;
+  plugin.destroy = destroy;
+  plugin.copy = copy;
+  plugin.reset = reset;
+  plugin.compute = compute;
+  plugin.advance = mjr_advance;
+  plugin.visualize = visualize;
+  plugin_slot = mjp_registerPlugin(&plugin);
+}

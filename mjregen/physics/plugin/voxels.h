@@ -1,0 +1,111 @@
+/* mjregen voxel physics: one MuJoCo engine plugin ("mjregen.voxels") that computes every force
+   of a soft voxel robot inside MuJoCo's passive stage, and a fast Euler stepper for models
+   whose only forces it computes.
+
+   Files: voxels.c (registration, configuration, lifecycle), forces.c (bonds, muscles,
+   floor, self-collision, drag), step.c (the fast path of mj_step). All configuration comes
+   from the plugin instance's attributes in the model (strings, read once per mjData in
+   `init`); the only state is the floor's stick flag of each voxel, in plugin_state.
+*/
+#ifndef MJREGEN_VOXELS_H_
+#define MJREGEN_VOXELS_H_
+
+#include <mujoco/mujoco.h>
+
+/* The configuration attributes, in the order the plugin registers them. Python checks its
+   own keys against this list when it loads the library (`mjr_attribute`). */
+#define MJR_ATTRIBUTES(X)                                                            \
+  X(dim)              /* 2 or 3 */                                                   \
+  X(voxel_size)       /* L, m */                                                     \
+  X(voxels)           /* n body names, in voxel order */                            \
+  X(frequency)        /* Hz of the muscles */                                        \
+  X(start)            /* s: the muscles start (end of the settle) */                 \
+  X(waveform)         /* contract | symmetric */                                     \
+  X(drive)            /* waveform | ctrl: strains from actuators muscle_plus/minus */ \
+  X(phase)            /* (n) -1, 0, +1: muscle phase of each voxel */                \
+  X(strain)           /* (n) linear strain amplitude of each voxel */                \
+  X(element)          /* beam | tendons */                                           \
+  X(bonds)            /* (nb, 2) voxel indices i j, j the +axis neighbour of i */    \
+  X(bond_axis)        /* (nb) 0, 1, 2 */                                             \
+  X(bond_muscle)      /* (nb, 2) w+ w-: rest length L (1 + w+ e+ + w- e-) */         \
+  X(bond_stiffness)   /* beam: (nb, 4) axial N/m, transverse N/m, bending, torsion N m */ \
+  X(bond_axial_law)   /* beam: (nb, 3) k straight N/m, k diagonal N/m, extent^2 m^2 */ \
+  X(bond_beta)        /* beam: (nb) s, damping per stiffness */                      \
+  X(tendon_bond)      /* tendons: (nt) bond of each tendon (bonds' tendons consecutive) */ \
+  X(tendon_sites)     /* tendons: (nt, 6) m, site offsets in voxel i's and j's frames */ \
+  X(tendon_stiffness) /* tendons: (nt) N/m */                                        \
+  X(tendon_damping)   /* tendons: (nt) N s/m */                                      \
+  X(tendon_rest)      /* tendons: (nt) m, rest length without actuation */           \
+  X(tendon_lateral2)  /* tendons: (nt) m^2, lateral extent^2 (muscle rest length) */ \
+  X(floor)            /* 1: the floor exists (plane z = 0) */                        \
+  X(floor_stiffness)  /* (n) N/m */                                                  \
+  X(floor_damping)    /* (n) N s/m */                                                \
+  X(static_friction)  /* (n) */                                                      \
+  X(kinetic_friction) /* (n) */                                                      \
+  X(collision_radius) /* m at the voxel's nominal size; 0: no self-collision */      \
+  X(collision_skin)   /* m, Verlet-list skin */                                      \
+  X(grid)             /* (n, 3) grid indices: neighbours in the grid never collide */ \
+  X(collides)         /* (n) 1: the voxel self-collides (it misses a face neighbour) */ \
+  X(drag_linear)      /* N s/m on every voxel centre */                              \
+  X(drag_rotational)  /* N m s */
+
+#define MJR_COUNT_ATTRIBUTE(name) +1
+enum { MJR_NATTRIBUTE = 0 MJR_ATTRIBUTES(MJR_COUNT_ATTRIBUTE) };
+
+#define MJR_SCRATCH 28 /* doubles per voxel: pos 3, R 9, vel 3, omega 3 (world), force 3,
+                          torque 3, quaternion 4 (w, x, y, z) */
+
+/* One robot's configuration and work space, per mjData (d->plugin_data[instance]). */
+typedef struct {
+  int dim, nvox, nbond, ntendon, ndriven;  /* driven bonds: 0 .. ndriven-1 */
+  int contract, beams, floor, waves, collide;
+  int ctrl_plus, ctrl_minus;  /* drive "ctrl": the actuators whose ctrl are the strains
+                                 (e+, e-); -1: the waveform drives the muscles */
+  double voxel_size, start, omega;
+  int* qadr;              /* (nvox) first qpos address, -1: welded to the world */
+  int* vadr;              /* (nvox) first dof address, -1: welded */
+  int* body;              /* (nvox) body ids */
+  double* pos0;           /* (nvox, 3) body position at qpos 0 (2D, welded voxels) */
+  double* half_p;         /* (nvox) m: L/2 strain of a "+" muscle voxel, else 0 */
+  double* half_m;         /* (nvox) m: likewise "-" */
+  int* bonds;             /* (nbond, 2) */
+  int* axis;              /* (nbond) */
+  double* muscle;         /* (nbond, 2) L w+, L w- */
+  double* stiffness;      /* (nbond, 4) */
+  double* law;            /* (nbond, 3) */
+  double* beta;           /* (nbond) */
+  int* tendon_bond;       /* (ntendon) */
+  double* sites;          /* (ntendon, 6) */
+  double* tk;             /* (ntendon) */
+  double* tc;             /* (ntendon) */
+  double* trest;          /* (ntendon) */
+  double* tlat2;          /* (ntendon) */
+  double* fk;             /* (nvox) floor stiffness */
+  double* fc;             /* (nvox) floor damping */
+  double* mu_s;           /* (nvox) */
+  double* mu_k;           /* (nvox) */
+  double coll_radius, coll_skin, coll_reach;
+  int* grid;              /* (nvox, 3) */
+  int* collides;          /* (nvox) */
+  double drag_lin, drag_rot;
+  double* scratch;        /* (nvox, MJR_SCRATCH) */
+  double* stick_next;     /* (nvox) stick flags after this step (copied to plugin_state
+                             by `advance`) */
+  double* coll_ref;       /* (nvox, 3) positions when the Verlet list was built */
+  int* coll_pairs;        /* (capacity, 2) */
+  int coll_count, coll_built;
+} mjrVoxels;
+
+/* forces.c: add every force of the robot at d's state to d->qfrc_passive; the floor's stick
+   flags for the end of this step go to v->stick_next (state: `stick`, nvox doubles).
+   `network`: bonds only (no muscles, floor, self-collision or drag): the linear network
+   whose stability limit sets the time step. */
+void mjr_forces(const mjModel* m, mjData* d, mjrVoxels* v, const mjtNum* stick, int network);
+
+/* voxels.c: the instance's state on d (NULL if `instance` is not an mjregen.voxels plugin) */
+mjrVoxels* mjr_instance(const mjModel* m, const mjData* d, int instance);
+
+/* voxels.c: the plugin's `advance`: the stick flags decided by the last compute become state */
+void mjr_advance(const mjModel* m, mjData* d, int instance);
+
+#endif  /* MJREGEN_VOXELS_H_ */
