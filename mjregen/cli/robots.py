@@ -142,16 +142,25 @@ def _walk(args: argparse.Namespace) -> int:
 
 
 def add_export(subparsers: argparse._SubParsersAction) -> None:
+    from mjregen.physics.native import library_path
+
     parser = subparsers.add_parser(
         "export",
         help="write a robot's MuJoCo model as MJCF XML",
-        description="Compile a robot file (.npy) with the default physics and write MJCF that "
-        "plain MuJoCo loads (mujoco.MjModel.from_xml_path) and that simulates the same. The "
-        "muscles are not in the XML: they are driven by rewriting tendon rest lengths "
-        "(mjregen.simulate.Simulation does it).",
+        description="Compile a robot file (.npy) and write its MuJoCo model as MJCF: exactly "
+        "the model `mjregen walk` simulates. With the default physics the voxel plugin "
+        "'mjregen.voxels' computes every force and drives the muscles from the end of the "
+        "settle, so plain MuJoCo walks the robot with mj_step alone, after loading the "
+        f"plugin library once: mujoco.mj_loadPluginLibrary('{library_path()}') (built on "
+        "first use; mjregen.plugin_library() returns the path). With --physics sphere or "
+        "legacy (pure MuJoCo) the muscles' tendons are the first ones in the file and their "
+        "rest lengths are rewritten every step by mjregen.simulate.Simulation.",
     )
     parser.add_argument("robot", type=Path, help="robot file (.npy)")
     add_physics_choice(parser)
+    parser.add_argument("--settle", type=float,
+                        help="s without actuation before the muscles start (default: the "
+                             "paper's, 3D 0.05, 2D 1.0)")
     parser.add_argument("--out", type=Path, required=True, help="XML file to write")
     parser.add_argument("--force", action="store_true", help="overwrite --out if it exists")
     parser.set_defaults(handler=_export)
@@ -164,10 +173,14 @@ def _export(args: argparse.Namespace) -> int:
     robot = Robot.load(args.robot)
     if robot.is_empty:
         raise MjregenError(f"{args.robot} holds an empty robot: nothing to export")
-    xml = compile_robot(robot, physics=physics_from_args(args)).to_xml()
+    compiled = compile_robot(robot, physics=physics_from_args(args))
     with atomic_open(args.out, "w", overwrite=args.force) as handle:
-        handle.write(xml)
-    print(f"wrote {args.out} ({robot.n_voxels} voxels)")
+        handle.write(compiled.to_xml())
+    print(f"wrote {args.out} ({robot.n_voxels} voxels, {compiled.pipeline} pipeline)")
+    if compiled.pipeline == "voxel":
+        from mjregen.physics import plugin_library
+
+        print(f"load it in MuJoCo after mujoco.mj_loadPluginLibrary('{plugin_library()}')")
     return 0
 
 

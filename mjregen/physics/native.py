@@ -69,7 +69,8 @@ def _mujoco_library() -> Path:
     return candidates[0]
 
 
-def _cache_path() -> Path:
+def library_path() -> Path:
+    """Where the plugin library for these sources and this MuJoCo lives (built or not)."""
     key = hashlib.sha256(b"".join(path.read_bytes() for path in (HEADER, *SOURCES))
                          + mujoco.__version__.encode()
                          + mujoco.__file__.encode()).hexdigest()[:16]
@@ -86,7 +87,7 @@ def plugin_library() -> Path:
     Raises:
       NativeBuildError: no C compiler, no MuJoCo headers, or the compiler failed.
     """
-    path = _cache_path()
+    path = library_path()
     if path.exists():
         return path
     compiler = _compiler()
