@@ -51,7 +51,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from mjregen.compile import compile_robot
+from mjregen.compile import compile_robot, pipeline_of
 from mjregen.grid import Material, Robot
 from mjregen import physics as physics_module
 from mjregen.physics import Physics
@@ -108,28 +108,26 @@ def evaluate(run: Run) -> dict:
     distance (voxel lengths, planar COM displacement after the settle), fitness, max_speed
     (m/s, fastest voxel at the end).
     """
-    compiled = compile_robot(run.robot, physics=run.physics, elevation=run.elevation,
-                             clamped=run.clamped)
     name = run.integrator or run.physics.scene.integrator
-    # Euler runs what `simulate` runs (the native model: beam bonds, engine floor, native
-    # stepper); the other integrators need MuJoCo's own tendons and contacts (the exported
-    # MJCF model, `CompiledRobot.model`)
-    native = name == "euler" and compiled.native_model is not None
-    model = compiled.native_model if native else compiled.model
+    # the voxel plugin starts the muscles at the scene's settle time
+    physics = run.physics.replace_scene(settle_time=run.settle)
+    if name != "euler" and pipeline_of(physics.scene) == "voxel":
+        # Euler runs what `simulate` runs (the voxel plugin: beam bonds, engine floor, native
+        # stepper); the other integrators run MuJoCo's own tendons and contacts, the engine
+        # floor's nearest ("point"), with the muscles driven from Python (so "-mid" applies)
+        physics = physics.replace_scene(contact_shape="point", bond_element="tendons",
+                                        stepper="mujoco")
+    compiled = compile_robot(run.robot, physics=physics, elevation=run.elevation,
+                             clamped=run.clamped)
+    model = compiled.model
     midpoint = name.endswith("-mid")
     model.opt.integrator = INTEGRATORS[name.removesuffix("-mid")]
     if run.dt is not None:
         model.opt.timestep = run.dt
     dt = float(model.opt.timestep)
-    if native:
-        sim = Simulation(model, scene=run.physics.scene, muscles=compiled.muscles,
-                         actuation_start=run.settle, bonds=compiled.native_bonds,
-                         voxel_bodies=compiled.body_ids,
-                         engine_contacts=compiled.engine_contacts)
-    else:
-        cls = MidpointSimulation if midpoint else Simulation
-        sim = cls(model, scene=run.physics.scene, muscles=compiled.muscles,
-                  actuation_start=run.settle)
+    cls = MidpointSimulation if midpoint else Simulation
+    sim = cls(model, scene=physics.scene, muscles=compiled.muscles, actuation_start=run.settle,
+              plugin_instance=compiled.plugin_instance)
     if run.kick:
         sim.data.qvel[:] = np.random.default_rng(0).normal(0.0, run.kick, model.nv)
     n_settle, n_measure = round(run.settle / dt), round(run.measured / dt)

@@ -19,3 +19,7 @@ class CheckpointError(MjregenError, ValueError):
 
 class InvalidGenomeError(MjregenError, ValueError):
     """A genome has the wrong length or holds non-finite values."""
+
+
+class PhysicsParameterError(MjregenError, ValueError):
+    """A material or scene parameter is missing, non-finite or out of its valid range."""

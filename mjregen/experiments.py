@@ -156,7 +156,8 @@ def scale_of(config: dict) -> str:
     for name, scale in SCALES.items():
         if (config["ga"]["population"] == scale.population[dim]
                 and config["ga"]["generations"] == scale.generations[dim]
-                and task.get("physics") == scale.physics(dim).to_dict()
+                and "physics" in task
+                and Physics.from_dict(task["physics"]) == scale.physics(dim)
                 and task.get("duration") == scale.duration(dim)):
             return name
     return "custom"

@@ -117,7 +117,7 @@ def measure(npz: Path, run_config: dict, expected_robot: Path | None = None) -> 
         "evaluation": {"physics": task["physics"], "settle_s": settle,
                        "duration_s": measured if duration is None else duration,
                        "duration_arg": duration,
-                       "physics_is_current_default": task["physics"] == Physics().to_dict()},
+                       "physics_is_current_default": physics == Physics()},
     }
 
 

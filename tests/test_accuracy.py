@@ -32,10 +32,12 @@ def cantilever_error(integrator: str, dt: float, reference: np.ndarray) -> float
 
 def CANTILEVER_RUN(dt: float, integrator: str) -> Run:
     """A 3-voxel hard cantilever clamped at one end, floor off, released under gravity:
-    a smooth ODE (no contacts, no muscles), so each integrator shows its textbook order."""
+    a smooth ODE (no contacts, no muscles), so each integrator shows its textbook order.
+    Tendon bonds: Euler steps them in the voxel plugin, RK4 as MuJoCo's tendons, the same
+    ODE (tests/test_native.py; beams differ from tendons by a third of Euler's error)."""
     robot = Robot.from_body(np.full((3, 1, 1), Material.HARD, dtype=np.int8))
-    return Run(robot, Physics().replace_scene(floor=False), settle=0.004, measured=0.0,
-               dt=dt, integrator=integrator, clamped=((1, 1, 1),))
+    return Run(robot, Physics().replace_scene(floor=False, bond_element="tendons"),
+               settle=0.004, measured=0.0, dt=dt, integrator=integrator, clamped=((1, 1, 1),))
 
 
 @pytest.fixture(scope="module")

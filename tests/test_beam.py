@@ -40,8 +40,9 @@ def passive_forces(robot: Robot, element: str, qpos: np.ndarray, qvel: np.ndarra
     return sim.data.qfrc_passive.copy(), sim.data
 
 
-def native_model(robot: Robot) -> mujoco.MjModel:
-    return compile_robot(robot, physics=Physics()).native_model
+def plugin_model(robot: Robot) -> mujoco.MjModel:
+    """The default (voxel plugin) model of `robot`: its dofs and rest state."""
+    return compile_robot(robot, physics=Physics()).model
 
 
 def split(linear: np.ndarray, angular: np.ndarray) -> np.ndarray:
@@ -69,7 +70,7 @@ def test_linear_stiffness_and_damping_equal_the_tendon_bundles(dim):
     angular velocities: the beam's force changes equal the tendons' to 1e-4 (the tendons'
     values are rounded to the 6 digits MJCF keeps, which leaves them ~2e-5 N at rest)."""
     robot = block_robot(dim)
-    model = native_model(robot)
+    model = plugin_model(robot)
     zero = np.zeros(model.nv)
     rest = {e: passive_forces(robot, e, model.qpos0, zero)[0] for e in ("tendons", "beam")}
     assert np.abs(rest["beam"]).max() < 1e-12
@@ -91,7 +92,7 @@ def test_axial_law_is_the_tendon_bundles(dim, strain):
     bar pulls back with its tendons' force, which stiffens in tension and softens in
     compression (3D: +10 % at +10 %, −14 % at −14 % against E·L·strain)."""
     robot = Robot.from_body(np.ones((2, 1, 1) if dim == 3 else (2, 1), dtype=np.int8))
-    model = native_model(robot)
+    model = plugin_model(robot)
     qpos = model.qpos0.copy()
     qpos[model.nq // 2] += strain * 1e-3  # second voxel's x
     forces = {e: passive_forces(robot, e, qpos, np.zeros(model.nv))[0] for e in ("tendons",
@@ -121,7 +122,7 @@ def test_large_deformation_conserves_momentum_and_angular_momentum():
     to zero and so do their moments about any point (to rounding), so a free robot can
     neither push nor spin itself."""
     robot = block_robot(3)
-    model = native_model(robot)
+    model = plugin_model(robot)
     rng = np.random.default_rng(7)
     linear, angular = random_parts(model, rng)
     qpos = displaced(model, split(2e-4 * linear, 0.3 * angular))
@@ -137,7 +138,7 @@ def test_large_deformation_conserves_momentum_and_angular_momentum():
 def test_rigid_motion_exerts_no_force():
     """A rotated (1.4 rad) and shifted robot spinning as a rigid body: no bond force."""
     robot = block_robot(3)
-    model = native_model(robot)
+    model = plugin_model(robot)
     rotation = np.zeros(4)
     mujoco.mju_axisAngle2Quat(rotation, np.array([0.3, -0.8, 0.5]) / np.linalg.norm(
         [0.3, -0.8, 0.5]), 1.4)
@@ -163,10 +164,14 @@ def test_mirror_symmetric_robot_stays_put_with_beams():
     assert result.stable and result.distance < 1e-6
 
 
-def test_beams_need_the_native_backend_and_euler():
-    with pytest.raises(PhysicsParameterError, match="bond_element 'beam'"):
-        Scene(bond_element="beam", bond_backend="tendon", contact_shape="box")
-    with pytest.raises(PhysicsParameterError, match="bond_element 'beam'"):
-        Scene(bond_element="beam", integrator="rk4", contact_shape="box")
+def test_beams_need_the_voxel_plugin_and_euler():
+    """Beams are the plugin's (contact_shape "engine"), which MuJoCo's Euler step integrates;
+    the pure-MuJoCo pipeline's bonds are tendons."""
+    for shape in ("box", "sphere", "point"):
+        with pytest.raises(PhysicsParameterError, match="bond_element 'beam'"):
+            Scene(bond_element="beam", contact_shape=shape)
+        Scene(bond_element="tendons", contact_shape=shape, integrator="rk4")  # valid
+    with pytest.raises(PhysicsParameterError, match="integrator 'euler'"):
+        Scene(bond_element="beam", integrator="rk4")
     with pytest.raises(PhysicsParameterError, match="bond_element"):
         Scene(bond_element="springs")

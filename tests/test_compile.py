@@ -16,52 +16,102 @@ ROBOTS = Path(__file__).resolve().parents[1] / "assets" / "robots"
 L = 1e-3
 
 
+def config(compiled) -> dict:
+    """The voxel plugin's configuration: attribute -> numbers (or the text itself)."""
+    out = {}
+    for key, value in compiled.spec.plugins[0].config.items():
+        try:
+            out[key] = np.array(value.split(), dtype=float)
+        except ValueError:
+            out[key] = value
+    return out
+
+
 def test_3d_structure_body_per_voxel_free_joint_8_tendons_per_bond():
     robot = Robot.from_body(np.ones((3, 2, 2), dtype=np.int8))  # 12 voxels, 20 bonds
     compiled = compile_robot(robot, physics=Physics().replace_scene(self_collision=False))
     model = compiled.model
+    assert compiled.pipeline == "voxel" and compiled.plugin_instance == 0
     assert compiled.n_bonds == 2 * 2 * 2 + 3 * 2 * 1 + 3 * 1 * 2 == 20
     assert model.nbody == 12 + 1 and model.njnt == 12
     assert np.all(model.jnt_type == mujoco.mjtJoint.mjJNT_FREE)
-    assert model.ntendon == 8 * 20
-    assert model.npair == 12  # voxel-floor pairs only
+    assert model.nplugin == 1 and model.ntendon == model.npair == model.nsite == 0
+    assert compiled.bonds.count == 8 * 20 and np.all(np.bincount(compiled.bonds.bond) == 8)
+    assert compiled.beams.count == 20
     assert model.nu == 0 and compiled.muscles is None  # no muscle machinery without muscles
     assert np.all(model.geom_contype == 0) and np.all(model.geom_conaffinity == 0)
     assert np.allclose(compiled.masses, 1e-3)
+    names = [f"voxel_{x}_{y}_{z}" for x, y, z in compiled.voxel_index]
+    assert [model.body(b).name for b in compiled.body_ids] == names
+    assert [model.geom(model.body_geomadr[b]).name for b in compiled.body_ids] == names
+    assert config(compiled)["voxels"].split() == names  # the plugin finds them by name
+    # the pure-MuJoCo pipeline: the same bonds as MuJoCo tendons, contacts with the floor
+    pure = compile_robot(robot, physics=Physics().replace_scene(
+        self_collision=False, contact_shape="box", bond_element="tendons"))
+    assert pure.pipeline == "mujoco" and pure.plugin_instance is None
+    assert pure.model.nplugin == 0 and pure.model.ntendon == 8 * 20
+    assert pure.model.npair == 12  # voxel-floor pairs only
+    assert [pure.model.body(b).name for b in pure.body_ids] == names
 
 
-def test_engine_contacts_are_native_no_mujoco_contacts_or_viscosity():
+def test_voxel_pipeline_computes_floor_collision_and_drag_in_the_plugin():
     """Default physics: floor, self-collision (surface voxels, 0.625 L spheres) and drag are
-    computed natively (`EngineContacts`); the native model has no contact geoms, no pairs, no
-    viscosity, and a stick flag per voxel in MjData.userdata. The exported tendon model
-    keeps MuJoCo equivalents (point contacts, collision spheres, viscosity)."""
+    the plugin's; the model has no contact geoms, no pairs, no viscosity, MuJoCo's contact
+    stages off, and a stick flag per voxel in its plugin state. The pure-MuJoCo pipeline
+    has MuJoCo's equivalents (point contacts, collision spheres, viscosity), the drag of the
+    same size."""
     robot = Robot.from_body(np.ones((3, 3, 3), dtype=np.int8))  # 26 surface voxels + 1
     compiled = compile_robot(robot)
-    model, table = compiled.native_model, compiled.engine_contacts
-    assert table is not None and model.npair == 0 and model.nuserdata == 27
+    model, values = compiled.model, config(compiled)
+    assert model.npair == 0 and model.npluginstate == 27
     assert np.all(model.geom_contype == 0) and model.opt.viscosity == 0.0
     skipped = mujoco.mjtDisableBit.mjDSBL_CONTACT | mujoco.mjtDisableBit.mjDSBL_CONSTRAINT
     assert model.opt.disableflags & skipped == skipped  # nothing for MuJoCo to collide
-    assert table.surface.sum() == 26 and not table.surface[13]  # the centre voxel is inside
-    assert table.collision_radius == pytest.approx(0.625e-3)
-    assert table.stiffness == pytest.approx(np.full(27, 2.0 * 1e7 * 1e-3))
-    assert np.all(table.static_friction == 1.0) and np.all(table.kinetic_friction == 0.5)
+    centre = int(np.flatnonzero((compiled.voxel_index == 2).all(axis=1))[0])
+    assert values["collides"].sum() == 26 and values["collides"][centre] == 0
+    assert values["collision_radius"] == pytest.approx([0.625e-3])
+    assert values["floor"] == [1.0]
+    assert values["floor_stiffness"] == pytest.approx(np.full(27, 2.0 * 1e7 * 1e-3))
+    assert np.all(values["static_friction"] == 1.0)
+    assert np.all(values["kinetic_friction"] == 0.5)
     # drag 2ζ sqrt(m E L) = 2·0.001·sqrt(1e-3 kg · 1e4 N/m) = 6.3246e-3 N s/m (c/m = 6.32/s)
-    assert table.drag_linear == pytest.approx(6.3246e-3, rel=1e-5)
-    exported = compiled.model
-    assert exported.npair == 27 and exported.opt.viscosity > 0 and exported.opt.disableflags == 0
+    assert values["drag_linear"] == pytest.approx([6.3246e-3], rel=1e-5)
+    pure = compile_robot(robot, physics=Physics().replace_scene(contact_shape="point",
+                                                                 bond_element="tendons"))
+    exported = pure.model
+    assert exported.npair == 27 and exported.opt.disableflags == 0
     assert (exported.geom_contype == 1).sum() == 26
+    # MuJoCo's Stokes drag on a box of edge L: 3π μ L
+    assert 3 * math.pi * exported.opt.viscosity * L == pytest.approx(values["drag_linear"][0],
+                                                                     rel=1e-12)
+
+
+def test_geoms_carry_their_voxels_materials():
+    robot = Robot.from_body(np.array([[[1, 2], [3, 4]], [[2, 1], [4, 3]]], dtype=np.int8))
+    compiled = compile_robot(robot)
+    model = compiled.model
+    codes = robot.grid[tuple(compiled.voxel_index.T)]
+    materials = [model.material(model.geom_matid[model.body_geomadr[b]]).name
+                 for b in compiled.body_ids]
+    names = {1: "soft", 2: "hard", 3: "muscle_plus", 4: "muscle_minus"}
+    assert materials == [names[int(code)] for code in codes]
 
 
 def test_2d_structure_slide_slide_hinge_4_tendons_per_bond():
     robot = Robot.from_body(np.ones((3, 2), dtype=np.int8))  # 6 voxels, 7 bonds
-    model = compile_robot(robot).model
+    compiled = compile_robot(robot)
+    model = compiled.model
     assert model.njnt == 3 * 6 and model.nv == 3 * 6
     types = model.jnt_type.reshape(6, 3)
     assert np.all(types == [mujoco.mjtJoint.mjJNT_SLIDE, mujoco.mjtJoint.mjJNT_SLIDE,
                             mujoco.mjtJoint.mjJNT_HINGE])
     assert np.allclose(model.jnt_axis.reshape(6, 3, 3)[0], [[1, 0, 0], [0, 0, 1], [0, 1, 0]])
-    assert model.ntendon == 4 * 7
+    assert compiled.n_bonds == 7 and compiled.bonds.count == 4 * 7
+    assert [model.body(b).name for b in compiled.body_ids] == \
+        [f"voxel_{x}_{z}" for x, z in compiled.voxel_index]
+    pure = compile_robot(robot, physics=Physics().replace_scene(contact_shape="box",
+                                                                 bond_element="tendons"))
+    assert pure.model.ntendon == 4 * 7
 
 
 def test_robot_starts_resting_on_floor_centred_at_origin():
@@ -78,12 +128,25 @@ def test_robot_starts_resting_on_floor_centred_at_origin():
 
 
 def test_bonds_start_unstressed():
-    """At the lattice positions every tendon sits at its rest length: no force, no drift."""
+    """At the lattice positions every tendon sits at its rest length (MuJoCo's tendons and
+    the plugin's alike) and the beams exert no force: no drift."""
     robot = Robot.from_body(np.array([[[1, 2], [3, 4]], [[2, 1], [4, 3]]], dtype=np.int8))
-    compiled = compile_robot(robot)
-    data = mujoco.MjData(compiled.model)
-    mujoco.mj_forward(compiled.model, data)
-    assert np.allclose(data.ten_length, compiled.model.tendon_lengthspring[:, 0], rtol=1e-6)
+    pure = compile_robot(robot, physics=Physics().replace_scene(contact_shape="box",
+                                                                 bond_element="tendons"))
+    data = mujoco.MjData(pure.model)
+    mujoco.mj_forward(pure.model, data)
+    assert np.allclose(data.ten_length, pure.model.tendon_lengthspring[:, 0], rtol=1e-6)
+    for element in ("tendons", "beam"):
+        compiled = compile_robot(robot, physics=Physics().replace_scene(
+            bond_element=element, floor=False, drag_ratio=0.0))
+        table, centres = compiled.bonds, compiled.model.body_pos[compiled.body_ids]
+        sites = centres[table.ends] + table.offsets
+        length = np.linalg.norm(sites[:, 1] - sites[:, 0], axis=1)
+        assert np.allclose(length, table.rest, rtol=1e-6)
+        data = mujoco.MjData(compiled.model)
+        mujoco.mj_forward(compiled.model, data)
+        # N; the tendons' values are rounded to MJCF's 6 digits (a voxel weighs 2.7e-2 N)
+        assert np.abs(data.qfrc_passive).max() < (1e-4 if element == "tendons" else 1e-12)
 
 
 def test_timestep_from_stiffest_bond_present():
@@ -123,10 +186,19 @@ def test_default_timestep_is_075_of_the_networks_euler_limit():
 def test_muscle_tendons_come_first_and_cover_exactly_the_muscle_bonds():
     # soft-red-soft-soft bar: bonds 0-1 and 1-2 touch the muscle, 2-3 does not
     robot = Robot.from_body(np.array([[[1]], [[3]], [[1]], [[1]]], dtype=np.int8))
-    compiled = compile_robot(robot)
+    compiled = compile_robot(robot, physics=Physics().replace_scene(contact_shape="box",
+                                                                     bond_element="tendons"))
     assert compiled.muscles is not None and compiled.muscles.count == 2 * 8
     assert np.allclose(compiled.muscles.weights, [0.07, 0.0])  # half of 0.14, red phase
     assert compiled.model.ntendon == 3 * 8
+    assert set(compiled.bonds.bond[:16]) == {0, 1} and set(compiled.bonds.bond[16:]) == {2}
+    # the voxel plugin drives the same bonds itself: the first two, weights in its config
+    plugin = compile_robot(robot)
+    assert plugin.muscles is None
+    assert np.allclose(plugin.beams.muscle_weights, [[0.07, 0.0], [0.07, 0.0]])
+    codes = robot.grid[tuple(plugin.voxel_index.T)]
+    assert (codes[plugin.beams.ends] == 3).any(axis=1).tolist() == [True, True, False]
+    assert np.allclose(config(plugin)["bond_muscle"], [0.07, 0.0, 0.07, 0.0, 0.0, 0.0])
 
 
 def test_bad_input_raises_clear_errors():
@@ -146,12 +218,14 @@ def test_bad_input_raises_clear_errors():
 
 @pytest.mark.parametrize("name", ["bimorph_walker_3d", "bimorph_walker_2d"])
 def test_exported_xml_reproduces_the_trajectory_bit_for_bit(name):
-    compiled = compile_robot(Robot.load(ROBOTS / f"{name}.npy"))
-    plain = mujoco.MjModel.from_xml_string(compiled.to_xml())
-    assert "mjregen" not in type(plain).__module__
     # actuation from t = 0 so the muscles act within the short run
-    ours, exported = (Simulation(model, scene=compiled.physics.scene, muscles=compiled.muscles,
-                                 actuation_start=0.0) for model in (compiled.model, plain))
+    compiled = compile_robot(Robot.load(ROBOTS / f"{name}.npy"),
+                             physics=Physics().replace_scene(settle_time=0.0))
+    plain = mujoco.MjModel.from_xml_string(compiled.to_xml())  # the plugin is loaded
+    assert plain.nplugin == 1 and plain.opt.timestep == compiled.timestep
+    ours, exported = (Simulation(model, scene=compiled.physics.scene,
+                                 plugin_instance=compiled.plugin_instance)
+                      for model in (compiled.model, plain))
     n = 1500
     a, b = np.empty((n, 3)), np.empty((n, 3))
     assert ours.run(n, com=a) == "" and exported.run(n, com=b) == ""
@@ -160,12 +234,13 @@ def test_exported_xml_reproduces_the_trajectory_bit_for_bit(name):
     assert np.ptp(a[:, 0]) > 0  # it did move
 
 
-def test_new_contact_and_damping_options_build_the_documented_geoms_and_drives():
+def test_point_contacts_and_collision_spheres_build_the_documented_geoms():
     """"point" contacts: a hidden plane at L/2 and a tiny sphere per voxel; a self-collision
-    radius other than L/2 gets its own sphere; damp_strain_rate one drive per driven tendon."""
+    radius other than L/2 gets its own sphere; the exported file runs the same, its muscle
+    tendons' rest lengths rewritten every step."""
     robot = Robot.load(ROBOTS / "bimorph_walker_3d.npy")
     physics = Physics().replace_scene(contact_shape="point", self_collision=True,
-                                      collision_radius=0.625, damp_strain_rate=True)
+                                      collision_radius=0.625, bond_element="tendons")
     compiled = compile_robot(robot, physics=physics)
     model = compiled.model
     plane = model.geom("floor_centres")
@@ -175,10 +250,11 @@ def test_new_contact_and_damping_options_build_the_documented_geoms_and_drives()
     assert np.allclose(model.geom_size[model.pair_geom2, 0], 1e-9)
     collide = model.geom_contype > 0
     assert collide.any() and np.allclose(model.geom_size[collide, 0], 0.625e-3)
-    assert model.nu == compiled.muscles.count and compiled.muscles.damping is not None
-    assert np.array_equal(compiled.muscles.damping, model.tendon_damping[: model.nu])
+    assert model.nu == 0 and model.nplugin == 0
     plain = mujoco.MjModel.from_xml_string(compiled.to_xml())
     a, b = (Simulation(m, scene=physics.scene, muscles=compiled.muscles, actuation_start=0.0)
             for m in (model, plain))
     assert a.run(500) == "" and b.run(500) == ""
-    assert np.array_equal(a.data.qpos, b.data.qpos) and np.any(a.data.ctrl != 0)
+    assert np.array_equal(a.data.qpos, b.data.qpos)
+    driven = compiled.muscles.count
+    assert not np.allclose(model.tendon_lengthspring[:driven, 0], compiled.bonds.rest[:driven])

@@ -10,14 +10,14 @@ import math
 import numpy as np
 import pytest
 
-from mjregen import bonds_native
+from mjregen import compile as compile_module
 from mjregen.compile import compile_robot
 from mjregen.grid import Robot
-from mjregen.physics import Physics, PhysicsParameterError
+from mjregen.physics import Physics, PhysicsParameterError, native
 from mjregen.simulate import simulation_of
 
-pytestmark = pytest.mark.skipif(not bonds_native.available(),
-                                reason="the engine floor is computed by the native backend")
+pytestmark = pytest.mark.skipif(not native.available(),
+                                reason="the engine floor is computed by the voxel plugin")
 
 L, M, G = 1e-3, 1e-3, 27.468
 K_FLOOR = 2.0 * 1e7 * L
@@ -51,13 +51,13 @@ def test_kicked_voxel_slides_on_kinetic_friction_then_sticks_dead():
     compiled, sim = voxel()
     run(sim, 0.02)
     x0 = sim.data.qpos[0]
-    assert sim.data.userdata[0] == 1.0  # resting: static friction holds it
+    assert sim.data.plugin_state[0] == 1.0  # resting: static friction holds it
     sim.data.qvel[0] = 0.1  # a kick from outside releases it
     run(sim, 0.004)
     assert sim.data.qvel[0] == pytest.approx(0.1 - 0.5 * G * 0.004, rel=0.01)
     run(sim, 0.02)
     assert sim.data.qpos[0] - x0 == pytest.approx(0.1**2 / (2 * 0.5 * G), rel=0.01)
-    assert sim.data.qvel[0] == 0.0 and sim.data.userdata[0] == 1.0  # stuck
+    assert sim.data.qvel[0] == 0.0 and sim.data.plugin_state[0] == 1.0  # stuck
     x_stop = sim.data.qpos[0]
     run(sim, 0.02)
     assert sim.data.qpos[0] == x_stop
@@ -118,12 +118,14 @@ def test_contracting_muscle_voxel_sinks_with_its_half_size():
     assert late.max() == pytest.approx(L / 2 - M * G / K_FLOOR, rel=0.01)
 
 
-def test_engine_floor_needs_the_native_backend():
-    tendons = Physics().replace_scene(bond_element="tendons")
+def test_engine_floor_needs_euler_and_a_penalty_stiffness():
     with pytest.raises(PhysicsParameterError, match="contact_shape 'engine'"):
-        tendons.replace_scene(bond_backend="tendon")
-    # without a floor there is nothing to compute natively: the tendon backend is fine
-    assert tendons.replace_scene(bond_backend="tendon", floor=False).scene.floor is False
+        Physics().replace_scene(integrator="rk4")
+    with pytest.raises(PhysicsParameterError, match="contact_stiffness"):
+        Physics().replace_scene(contact_stiffness=None)
+    # MuJoCo's contact shapes take either integrator
+    assert Physics().replace_scene(integrator="rk4", contact_shape="point",
+                                   bond_element="tendons").scene.integrator == "rk4"
 
 
 def colliding_pair(speed: float):
@@ -164,8 +166,9 @@ def test_self_collision_candidate_list_never_changes_the_result(monkeypatch):
     step) and of 3 L (built once) give bit-identical motion."""
     states = []
     for skin in (0.01, 3.0):
-        monkeypatch.setattr(bonds_native, "COLLISION_SKIN", skin)
+        monkeypatch.setattr(compile_module, "COLLISION_SKIN", skin)
         compiled, sim, *_ = colliding_pair(0.05)
+        assert float(compiled.spec.plugins[0].config["collision_skin"]) == skin * L
         assert sim.run(round(0.03 / compiled.timestep)) == ""
         states.append(sim.data.qpos.copy())
     assert np.array_equal(states[0], states[1])

@@ -69,10 +69,11 @@ def test_outputs_match_the_robot_and_the_simulation(walked, small_robot):
     out, done = walked
     robot = Robot.load(small_robot)
     assert Robot.load(out / "robot.npy") == robot
-    model = mujoco.MjModel.from_xml_path(str(out / "robot.xml"))  # plain MuJoCo loads it
+    # MuJoCo loads it with the plugin library (loaded here by compiling)
     compiled = compile_robot(robot)
-    assert (model.nbody, model.ntendon, model.nq) == (compiled.model.nbody,
-                                                      compiled.model.ntendon, compiled.model.nq)
+    model = mujoco.MjModel.from_xml_path(str(out / "robot.xml"))
+    assert (model.nbody, model.nplugin, model.npluginstate, model.nq) == (
+        compiled.model.nbody, 1, compiled.model.npluginstate, compiled.model.nq)
     summary = json.loads((out / "summary.json").read_text())
     expected = simulate(robot, duration=0.02)
     assert summary["distance"] == expected.distance and summary["fitness"] == expected.fitness

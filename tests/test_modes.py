@@ -5,7 +5,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mjregen import bonds_native
 from mjregen.compile import compile_robot
 from mjregen.grid import Material, Robot
 from mjregen.modes import (
@@ -14,11 +13,11 @@ from mjregen.modes import (
     stable_step,
     strain_stiffening,
 )
-from mjregen.physics import Physics
+from mjregen.physics import Physics, native
 from mjregen.simulate import simulation_of
 
-pytestmark = pytest.mark.skipif(not bonds_native.available(),
-                                reason="no C compiler for the native backend")
+pytestmark = pytest.mark.skipif(not native.available(),
+                                reason="no C compiler for the voxel plugin")
 
 NETWORK = Physics().replace_scene(timestep_rule="network")
 STIFFEST_BOND = Physics().replace_scene(timestep_rule="stiffest_bond")
@@ -26,9 +25,8 @@ STIFFEST_BOND = Physics().replace_scene(timestep_rule="stiffest_bond")
 
 def _rates(robot: Robot, physics: Physics) -> tuple[float, float]:
     compiled = compile_robot(robot, physics=physics)
-    return network_rates(compiled.native_model, compiled.native_bonds,
-                         voxel_bodies=compiled.body_ids, dim=robot.dim,
-                         muscles=compiled.muscles, scene=physics.scene)
+    return network_rates(compiled.model, voxel_size=physics.scene.voxel_size,
+                         instance=compiled.plugin_instance)
 
 
 @pytest.mark.parametrize("element", ["beam", "tendons"])
@@ -101,14 +99,16 @@ def test_lengthening_muscles_stiffen_their_bonds_contracting_ones_do_not():
 def test_network_rule_is_the_default():
     assert Physics().scene.timestep_rule == "network"
     old = Physics().to_dict()
-    del old["scene"]["timestep_rule"]  # written before the rule existed
+    old.pop("format", None)  # written before the rule existed (and description formats)
+    del old["scene"]["timestep_rule"]
     assert Physics.from_dict(old).scene.timestep_rule == "stiffest_bond"
 
 
 def test_network_rule_fits_the_step_to_the_robot():
     """A block's network is as stiff as the stiffest-bond rule assumes: about the same step;
-    the paper's biped (hard voxels in thin legs) gets a longer one; a tendon-backend build
-    takes the native build's step."""
+    the paper's biped (hard voxels in thin legs) gets a longer one; a pure-MuJoCo build
+    takes the step of the voxel plugin's tendons (without a floor: MuJoCo's contacts are
+    not in the network)."""
     block = Robot.from_body(np.full((4, 4, 4), Material.HARD, np.int8))
     biped = Robot.load("assets/robots/paper/biped.npy")
     ratio = {name: compile_robot(robot, physics=NETWORK).timestep
@@ -116,24 +116,30 @@ def test_network_rule_fits_the_step_to_the_robot():
              for name, robot in (("block", block), ("biped", biped))}
     assert 0.95 < ratio["block"] < 1.15
     assert ratio["biped"] > 1.6
-    tendon = NETWORK.replace_scene(bond_element="tendons", bond_backend="tendon",
-                                   contact_shape="point")
-    native = tendon.replace_scene(bond_backend="native")
-    assert compile_robot(biped, physics=tendon).timestep == \
-        compile_robot(biped, physics=native).timestep
+    plugin = NETWORK.replace_scene(bond_element="tendons", floor=False)
+    pure = plugin.replace_scene(contact_shape="point")
+    assert compile_robot(biped, physics=pure).timestep == \
+        compile_robot(biped, physics=plugin).timestep
+    # the engine floor's springs and dampers join the voxel pipeline's network: shorter
+    assert compile_robot(biped, physics=plugin.replace_scene(floor=True)).timestep < \
+        compile_robot(biped, physics=plugin).timestep
 
 
 def test_without_a_compiler_the_network_rule_says_so_and_the_mujoco_presets_still_run(
-        monkeypatch):
-    from mjregen.physics import PhysicsParameterError, sphere_physics
+        monkeypatch, tmp_path):
+    from mjregen.physics import NativeBuildError, sphere_physics
 
-    monkeypatch.setattr(bonds_native, "available", lambda: False)
+    # a process without the plugin library and without a C compiler to build it
+    monkeypatch.setattr(native, "_library", None)
+    monkeypatch.setattr(native, "library_path", lambda: tmp_path / "missing.so")
+    monkeypatch.setattr(native, "_compiler", lambda: None)
     robot = Robot.from_body(np.full((2, 2, 2), Material.SOFT, np.int8))
-    tendon = NETWORK.replace_scene(bond_element="tendons", bond_backend="tendon",
-                                   contact_shape="point")
-    with pytest.raises(PhysicsParameterError, match="stiffest_bond"):
-        compile_robot(robot, physics=tendon)
+    for physics in (NETWORK, NETWORK.replace_scene(bond_element="tendons",
+                                                   contact_shape="point")):
+        with pytest.raises(NativeBuildError, match="C compiler"):
+            compile_robot(robot, physics=physics)
     physics = sphere_physics()  # MuJoCo tendons and contacts, the stiffest-bond step
-    assert compile_robot(robot, physics=physics.replace_scene(bond_backend="tendon")).timestep \
-        == pytest.approx(physics.timestep(1e7 * 1e-3 / physics.voxel_mass(Material.SOFT)),
-                         rel=1e-5)
+    compiled = compile_robot(robot, physics=physics)
+    assert compiled.timestep == pytest.approx(
+        physics.timestep(1e7 * 1e-3 / physics.voxel_mass(Material.SOFT)), rel=1e-5)
+    assert simulation_of(compiled).run(100) == ""

@@ -1,110 +1,129 @@
-"""Native bond backend: the same motion as the tendon model, per-MjData state, export."""
+"""Voxel plugin: the same motion as the pure-MuJoCo tendon model, per-MjData state."""
 
 from __future__ import annotations
 
-import gc
+import copy
 import threading
 
 import mujoco
 import numpy as np
 import pytest
 
-from mjregen import bonds_native
 from mjregen.compile import compile_robot
 from mjregen.grid import Robot
-from mjregen.physics import Physics, PhysicsParameterError
-from mjregen.simulate import simulate, simulation_of
+from mjregen.physics import Physics, PhysicsParameterError, native
+from mjregen.simulate import simulation_of
 
-pytestmark = pytest.mark.skipif(not bonds_native.available(),
-                                reason="no C compiler for the native bond backend")
+pytestmark = pytest.mark.skipif(not native.available(),
+                                reason="no C compiler for the voxel plugin")
 
 SLAB = np.ones((4, 3, 2), dtype=np.int8)
 SLAB[:, :, 0] = np.where(np.arange(4)[:, None] % 2 == 0, 3, 4)
 SLAB[1, 1, 1] = 2
-# the tendon model (the exported MJCF) has MuJoCo contacts: compare backends on point contacts
-# (the default "engine" floor exists only in the native loop; tests/test_engine_floor.py)
-TENDONS = Physics().replace_scene(bond_element="tendons")  # what both backends compute
-CONTACTS = TENDONS.replace_scene(contact_shape="point")
+# what both pipelines compute alike: tendon bonds, muscles and drag (the plugin's drag is
+# MuJoCo's viscosity on the voxel's box); the engine floor and the plugin's self-collision
+# have no MuJoCo twin (tests/test_engine_floor.py)
+TENDONS = Physics().replace_scene(bond_element="tendons", floor=False, self_collision=False)
 
 
 def _both(robot, physics, steps, clamped=(), elevation=0.0):
-    """qpos, qvel after `steps` steps with each backend."""
-    out = {}
-    for backend in ("tendon", "native"):
-        compiled = compile_robot(robot, physics=physics.replace_scene(bond_backend=backend),
+    """(qpos, qvel, largest bond strain) after `steps` steps with each pipeline: the
+    voxel plugin (contact_shape "engine") and MuJoCo's tendons (contact_shape "point")."""
+    out, steps_of = {}, set()
+    for pipeline, shape in (("voxel", "engine"), ("mujoco", "point")):
+        compiled = compile_robot(robot, physics=physics.replace_scene(contact_shape=shape),
                                  clamped=clamped, elevation=elevation)
-        assert compiled.bond_backend == backend
+        assert compiled.pipeline == pipeline
         sim = simulation_of(compiled)
-        assert sim.native == (backend == "native")
+        assert (sim.stepper is not None) == (pipeline == "voxel")
         assert sim.run(steps) == ""
-        out[backend] = sim.data.qpos.copy(), sim.data.qvel.copy()
+        mujoco.mj_kinematics(sim.model, sim.data)
+        centres = sim.data.xpos[compiled.body_ids]
+        lengths = np.linalg.norm(np.diff(centres[compiled.beams.ends], axis=1)[:, 0], axis=1)
+        strain = np.max(np.abs(lengths / physics.scene.voxel_size - 1.0))
+        out[pipeline] = sim.data.qpos.copy(), sim.data.qvel.copy(), strain
+        steps_of.add(compiled.timestep)
+    assert len(steps_of) == 1  # the same bond network, the same time step
     return out
 
 
 @pytest.mark.parametrize("physics", [
-    CONTACTS,
-    CONTACTS.replace_scene(damp_strain_rate=True),
-    CONTACTS.replace_scene(waveform="symmetric", bond_model="timoshenko", self_collision=False),
-], ids=["default", "strain_rate", "symmetric"])
+    TENDONS,
+    TENDONS.replace_scene(waveform="symmetric", bond_model="timoshenko"),
+], ids=["default", "symmetric"])
 @pytest.mark.parametrize("grid", [SLAB, SLAB[:, 1, :]], ids=["3d", "2d"])
-def test_walking_robot_same_motion(grid, physics):
-    """Settle 5 ms, then 1500 steps in all with muscles driven (~30 ms in 3D)."""
+def test_driven_robot_same_motion(grid, physics):
+    """Settle 5 ms, then 1500 steps in all with muscles driven (~30 ms in 3D), falling."""
     physics = physics.replace_scene(settle_time=0.005)
     out = _both(Robot.from_body(grid), physics, 1500)
-    (q_t, v_t), (q_n, v_n) = out["tendon"], out["native"]
-    assert np.max(np.abs(q_t - q_n)) < 1e-12  # m (and quaternion units)
-    assert np.max(np.abs(v_t - v_n)) < 1e-8 * max(1.0, np.max(np.abs(v_t)))
+    (q_v, v_v, strain), (q_m, v_m, _) = out["voxel"], out["mujoco"]
+    assert strain > 1e-3  # the muscles work (a free fall alone strains nothing)
+    assert np.max(np.abs(q_v - q_m)) < 1e-12  # m (and quaternion units)
+    assert np.max(np.abs(v_v - v_m)) < 1e-8 * max(1.0, np.max(np.abs(v_m)))
 
 
 @pytest.mark.parametrize("dim", [2, 3])
 def test_clamped_hard_cantilever_same_motion(dim):
     shape = (5, 1, 1) if dim == 3 else (5, 1)
     robot = Robot.from_body(np.full(shape, 2, dtype=np.int8))
-    physics = TENDONS.replace_scene(floor=False)
     root = next(iter(robot.voxels()))[0]
-    out = _both(robot, physics, 3000, clamped=[root], elevation=0.01)
-    (q_t, v_t), (q_n, v_n) = out["tendon"], out["native"]
-    assert np.max(np.abs(q_t)) > 1e-5  # it did sag
-    assert np.max(np.abs(q_t - q_n)) < 1e-13
-    assert np.max(np.abs(v_t - v_n)) < 1e-9
+    out = _both(robot, TENDONS, 3000, clamped=[root], elevation=0.01)
+    (q_v, v_v, *_), (q_m, v_m, *_) = out["voxel"], out["mujoco"]
+    assert np.max(np.abs(q_m - q_v)) < 1e-13
+    assert np.max(np.abs(v_m - v_v)) < 1e-9
+    rest = compile_robot(robot, physics=TENDONS, clamped=[root], elevation=0.01).model.qpos0
+    assert np.max(np.abs(q_m - rest)) > 1e-5  # it did sag
 
 
-def test_simulate_results_agree_and_export_is_the_tendon_model():
+def test_both_pipelines_hold_the_same_bond_tendons():
+    """One `BondTable`: the voxel plugin's configuration and MuJoCo's tendons ``bond<b>_<t>``,
+    8 per 3D bond; the plugin's model has no tendons or sites of its own."""
     robot = Robot.from_body(SLAB)
-    results = {b: simulate(robot, physics=CONTACTS.replace_scene(bond_backend=b),
-                           duration=0.03) for b in ("tendon", "native")}
-    assert results["native"].steps == results["tendon"].steps
-    assert results["native"].distance == pytest.approx(results["tendon"].distance, rel=1e-6)
-    compiled = compile_robot(robot, physics=TENDONS.replace_scene(bond_backend="native"))
-    assert compiled.native_model.ntendon == 0 and compiled.native_model.nsite == 0
-    assert compiled.model.ntendon == compiled.bonds.count == 8 * compiled.n_bonds
-    plain = mujoco.MjModel.from_xml_string(compiled.to_xml())
-    assert plain.ntendon == compiled.model.ntendon
-    assert compiled.timestep == plain.opt.timestep
+    voxel = compile_robot(robot, physics=TENDONS)
+    mujoco_pipeline = compile_robot(robot, physics=TENDONS.replace_scene(contact_shape="point"))
+    assert voxel.model.nplugin == 1 and voxel.model.ntendon == voxel.model.nsite == 0
+    table = voxel.bonds
+    assert table.count == 8 * voxel.n_bonds and np.all(np.bincount(table.bond) == 8)
+    config = voxel.spec.plugins[0].config
+    for key, values in (("tendon_stiffness", table.stiffness), ("tendon_damping", table.damping),
+                        ("tendon_rest", table.rest), ("tendon_bond", table.bond)):
+        assert np.array_equal(np.array(config[key].split(), dtype=float), values)
+    model = mujoco_pipeline.model
+    assert model.nplugin == 0 and model.ntendon == table.count
+    assert [model.tendon(t).name for t in range(model.ntendon)] == \
+        [f"bond{b}_{t}" for t, b in enumerate(table.bond)]
+    assert np.array_equal(model.tendon_stiffness, table.stiffness)
+    assert np.array_equal(model.tendon_damping, table.damping)
+    assert np.array_equal(model.tendon_lengthspring[:, 0], table.rest)
+    for field in ("ends", "offsets", "stiffness", "damping", "rest", "bond", "lateral"):
+        assert np.array_equal(getattr(mujoco_pipeline.bonds, field), getattr(table, field))
 
 
-def test_state_is_per_data_and_released():
-    gc.collect()
-    before = bonds_native.registered()
-    compiled = compile_robot(Robot.from_body(SLAB),
-                             physics=TENDONS.replace_scene(bond_backend="native"))
+def test_state_is_per_data():
+    """The floor's stick flags are each MjData's plugin_state: two MjData of one model step
+    identically, a copy steps like its original, mj_forward changes no state, and the flags
+    matter (a copy whose flags are cleared moves differently)."""
+    compiled = compile_robot(Robot.from_body(SLAB))
     sims = [simulation_of(compiled) for _ in range(2)]
-    assert bonds_native.registered() == before + 2
-    # an unregistered MjData of the same model feels no bonds: it falls apart differently
-    loose = mujoco.MjData(compiled.native_model)
-    mujoco.mj_step(compiled.native_model, loose, nstep=300)
     for sim in sims:
-        sim.run(300)
+        assert sim.run(300) == ""
     assert np.array_equal(sims[0].data.qpos, sims[1].data.qpos)
-    assert not np.allclose(loose.qpos, sims[0].data.qpos, atol=1e-7)
-    del sims, sim
-    gc.collect()
-    assert bonds_native.registered() == before
+    data = sims[0].data
+    assert compiled.model.npluginstate == len(compiled.voxel_index) and data.plugin_state.any()
+    assert not mujoco.MjData(compiled.model).plugin_state.any()  # fresh: nothing sticks
+    state = data.plugin_state.copy()
+    mujoco.mj_forward(compiled.model, data)
+    assert np.array_equal(data.plugin_state, state)
+    twin, loose = copy.copy(data), copy.copy(data)
+    loose.plugin_state[:] = 0.0
+    for other in (data, twin, loose):
+        mujoco.mj_step(compiled.model, other, nstep=300)
+    assert np.array_equal(twin.qpos, data.qpos)
+    assert not np.array_equal(loose.qpos, data.qpos)
 
 
 def test_threads_give_the_serial_result():
-    compiled = compile_robot(Robot.from_body(SLAB),
-                             physics=TENDONS.replace_scene(bond_backend="native"))
+    compiled = compile_robot(Robot.from_body(SLAB))
     serial = simulation_of(compiled)
     serial.run(800)
     sims = [simulation_of(compiled) for _ in range(2)]
@@ -117,23 +136,25 @@ def test_threads_give_the_serial_result():
         assert np.array_equal(sim.data.qpos, serial.data.qpos)
 
 
-def test_native_needs_euler():
+def test_engine_needs_euler_mujoco_contacts_take_rk4():
     with pytest.raises(PhysicsParameterError, match="euler"):
-        TENDONS.replace_scene(bond_backend="native", integrator="rk4")
-    compiled = compile_robot(Robot.from_body(SLAB), physics=CONTACTS.replace_scene(
-        integrator="rk4", bond_backend="auto"))
-    assert compiled.bond_backend == "tendon"  # auto falls back
+        Physics().replace_scene(integrator="rk4")
+    compiled = compile_robot(Robot.from_body(SLAB), physics=Physics().replace_scene(
+        integrator="rk4", contact_shape="point", bond_element="tendons"))
+    assert compiled.pipeline == "mujoco" and compiled.plugin_instance is None
+    assert compiled.model.opt.integrator == mujoco.mjtIntegrator.mjINT_RK4
 
 
 def test_skipping_mujocos_contact_stages_changes_nothing():
-    """The default model disables MuJoCo's collision and constraint stages (everything that
-    touches is native): stepping with them enabled gives bit-identical states."""
+    """The voxel model disables MuJoCo's collision and constraint stages (everything that
+    touches is the plugin's): stepping with them enabled gives bit-identical states."""
     compiled = compile_robot(Robot.load("assets/robots/paper/tripod.npy"),
                              physics=Physics().replace_scene(stepper="mujoco"))
-    assert compiled.native_model.opt.disableflags != 0
+    skipped = mujoco.mjtDisableBit.mjDSBL_CONTACT | mujoco.mjtDisableBit.mjDSBL_CONSTRAINT
+    assert compiled.model.opt.disableflags & skipped == skipped
     fast = simulation_of(compiled)
-    assert fast.run(3000) == ""
-    compiled.native_model.opt.disableflags = 0
+    assert fast.stepper is None and fast.run(3000) == ""
+    compiled.model.opt.disableflags = 0
     full = simulation_of(compiled)
     assert full.run(3000) == ""
     assert np.array_equal(fast.data.qpos, full.data.qpos)

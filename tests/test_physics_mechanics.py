@@ -287,35 +287,6 @@ def test_symmetric_waveform_also_extends():
     assert distance[late].min() == pytest.approx(0.86 * L, rel=0.005)
 
 
-def _free_muscle_bar(damp_strain_rate: bool) -> tuple[float, int]:
-    """Two red voxels, no gravity, no floor, 2 cycles: (max |centre distance − rest|, nu)."""
-    robot = Robot.from_body(np.array([3, 3], dtype=np.int8).reshape(2, 1, 1))
-    physics = Physics().replace_scene(gravity=0.0, floor=False, settle_time=0.0,
-                                      damp_strain_rate=damp_strain_rate, bond_damping_ratio=1.0,
-                                      bond_backend="tendon", bond_element="tendons")
-    compiled = compile_robot(robot, physics=physics)
-    sim = simulation_of(compiled)
-    dt = compiled.timestep
-    worst = 0.0
-    for k in range(round(0.05 / dt)):
-        assert sim.run(1) == ""
-        plus, _ = sim.strains(sim.steps * dt)
-        rest = L * (1.0 + 0.14 * plus)
-        distance = np.linalg.norm(np.diff(sim.data.xpos[compiled.body_ids], axis=0))
-        worst = max(worst, abs(distance - rest))
-    return worst, compiled.model.nu
-
-
-def test_strain_rate_damping_lets_a_free_muscle_follow_its_rest_length():
-    """The engine damps d(l − l₀)/dt: a free muscle pair then tracks l₀ with a lag well
-    below that of a damper on dl/dt (c·dl₀/dt/k ≈ 2ζ·sqrt(m/k)·ω·0.14 L ≈ 0.1 L·0.14)."""
-    plain, nu_plain = _free_muscle_bar(False)
-    rate, nu_rate = _free_muscle_bar(True)
-    assert nu_plain == 0 and nu_rate == 8  # one drive per driven tendon
-    assert plain > 2e-6  # µm-scale lag of the plain damper
-    assert rate < 0.2 * plain
-
-
 @pytest.mark.parametrize("shape, spin", [("point", (0.0, 0.1)), ("sphere", (5.0, math.inf))])
 def test_point_contacts_rest_like_the_engine_and_exert_no_moment(shape, spin):
     """contact_shape "point": a voxel rests with its centre at L/2 whatever its orientation
@@ -323,7 +294,7 @@ def test_point_contacts_rest_like_the_engine_and_exert_no_moment(shape, spin):
     a kicked voxel slides without starting to roll."""
     physics = Physics().replace_scene(contact_shape=shape, contact_stiffness=2.0,
                                       contact_damping=1.2, settle_time=0.0,
-                                      self_collision=False)
+                                      self_collision=False, bond_element="tendons")
     robot = Robot.from_body(np.ones((1, 1, 1), dtype=np.int8))
     compiled = compile_robot(robot, physics=physics)
     sim = simulation_of(compiled)

@@ -73,8 +73,13 @@ def test_bad_material_raises_naming_the_parameter(kwargs, word):
     (dict(contact_timeconst=0.0), "contact_timeconst"),
     (dict(floor=1), "floor"),
     (dict(contact_shape="capsule"), "contact_shape"),
-    (dict(damp_strain_rate=1), "damp_strain_rate"),
     (dict(collision_radius=0.75), "collision_radius"),
+    # the voxel plugin (contact_shape "engine") is stepped with Euler and has a penalty floor
+    (dict(integrator="rk4"), "integrator 'euler'"),
+    (dict(contact_stiffness=None), "contact_stiffness"),
+    # beams and the native stepper exist in the voxel pipeline only
+    (dict(contact_shape="box"), "bond_element 'beam'"),
+    (dict(contact_shape="point", bond_element="tendons", stepper="native"), "stepper 'native'"),
 ])
 def test_bad_scene_raises_naming_the_parameter(kwargs, word):
     with pytest.raises(PhysicsParameterError, match=word):
@@ -97,15 +102,23 @@ def test_physics_pickles_and_round_trips_through_json():
     import pickle
 
     physics = Physics().replace_scene(settle_time=0.2, integrator="rk4",
-                                      contact_shape="sphere", bond_backend="tendon",
-                                      bond_element="tendons")
+                                      contact_shape="sphere", bond_element="tendons")
     assert pickle.loads(pickle.dumps(physics)) == physics  # sent to worker processes
     assert Physics.from_dict(json.loads(json.dumps(physics.to_dict()))) == physics
     assert Physics.from_dict(Physics().to_dict()) == Physics()  # beams survive the trip
     # descriptions written before beam bonds existed (runs, manifests) meant tendon bonds
     old = Physics().to_dict()
+    old.pop("format", None)  # ... and before description formats
     del old["scene"]["bond_element"]
-    assert Physics.from_dict(old).scene.bond_element == "tendons"
+    tendons = Physics.from_dict(old)
+    assert tendons.scene.bond_element == "tendons"
+    # ... and they may name how bonds were computed (now the pipeline's choice) or the
+    # strain-rate damping, which no longer exists: refused when it was on
+    old["scene"].update(bond_backend="native", damp_strain_rate=False)
+    assert Physics.from_dict(old) == tendons
+    old["scene"]["damp_strain_rate"] = True
+    with pytest.raises(PhysicsParameterError, match="damp_strain_rate"):
+        Physics.from_dict(old)
     broken = physics.to_dict()
     broken["materials"]["hard"]["youngs_modulus"] = -1.0
     with pytest.raises(PhysicsParameterError, match="youngs_modulus"):

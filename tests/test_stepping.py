@@ -8,15 +8,14 @@ import mujoco
 import numpy as np
 import pytest
 
-from mjregen import bonds_native
 from mjregen.compile import compile_robot
 from mjregen.grid import Robot
-from mjregen.physics import Physics, PhysicsParameterError
+from mjregen.physics import Physics, PhysicsParameterError, native
 from mjregen.simulate import simulate, simulation_of
 from mjregen.stepping import NativeStepper, unsupported
 
-pytestmark = pytest.mark.skipif(not bonds_native.available(),
-                                reason="no C compiler for the native backend")
+pytestmark = pytest.mark.skipif(not native.available(),
+                                reason="no C compiler for the voxel plugin")
 
 SLAB = np.ones((4, 3, 2), dtype=np.int8)
 SLAB[:, :, 0] = np.where(np.arange(4)[:, None] % 2 == 0, 3, 4)
@@ -103,11 +102,16 @@ def test_paper_robot_walks_the_same_distance(name):
 
 def test_default_uses_the_native_stepper_where_the_model_qualifies():
     robot = Robot.from_body(SLAB)
-    assert simulation_of(compile_robot(robot)).stepper is not None
+    compiled = compile_robot(robot)
+    assert unsupported(compiled.model) == ""
+    assert simulation_of(compiled).stepper is not None
     point = Physics().replace_scene(contact_shape="point", bond_element="tendons")
-    sim = simulation_of(compile_robot(robot, physics=point))  # MuJoCo contacts
+    sim = simulation_of(compile_robot(robot, physics=point))  # MuJoCo tendons and contacts
     assert sim.stepper is None
-    assert "contacts" in unsupported(sim.model)
+    assert "plugin" in unsupported(sim.model)
+    compiled.model.opt.disableflags = 0  # the voxel model with MuJoCo's contact stages on
+    assert "contacts" in unsupported(compiled.model)
+    assert simulation_of(compiled).stepper is None
 
 
 def test_native_stepper_refuses_what_it_cannot_step():
@@ -116,10 +120,18 @@ def test_native_stepper_refuses_what_it_cannot_step():
                                 bond_element="tendons")
     with pytest.raises(PhysicsParameterError, match="stepper must be one of"):
         Physics().replace_scene(stepper="fast")
-    tendon_model = compile_robot(Robot.from_body(SLAB)).model  # the exported tendon MJCF
-    assert unsupported(tendon_model)  # MuJoCo contacts and tendons
+    tendon_model = compile_robot(Robot.from_body(SLAB), physics=Physics().replace_scene(
+        contact_shape="point", bond_element="tendons")).model  # pure MuJoCo
+    assert unsupported(tendon_model)  # no plugin, MuJoCo contacts and tendons
     with pytest.raises(ValueError, match="cannot step this model"):
         NativeStepper(tendon_model, mujoco.MjData(tendon_model))
+    # what `unsupported` checks, the stepper checks again against MuJoCo's own mass matrix
+    spec = compile_robot(Robot.from_body(SLAB)).spec
+    spec.bodies[1].geoms[0].pos = [2e-4, 0.0, 0.0]  # centre of mass off the joint: coupled
+    model = spec.compile()
+    assert "centre of mass" in unsupported(model)
+    with pytest.raises(ValueError, match="mass matrix"):
+        NativeStepper(model, mujoco.MjData(model), checked=True)
     sim = simulation_of(compile_robot(Robot.from_body(SLAB)))
     sim.data.xfrc_applied[1, 0] = 1e-3
     with pytest.raises(ValueError, match="xfrc_applied"):
@@ -154,6 +166,7 @@ def test_bad_state_stops_and_is_reported_unstable():
 def test_descriptions_without_a_stepper_replay_with_mj_step():
     values = Physics().to_dict()
     assert values["scene"]["stepper"] == "auto"
+    values.pop("format", None)  # written before the stepper (and description formats)
     del values["scene"]["stepper"]
     assert Physics.from_dict(values).scene.stepper == "mujoco"
     assert Physics.from_dict(Physics().to_dict()) == Physics()

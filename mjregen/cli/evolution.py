@@ -91,7 +91,7 @@ def _stored_run(args: argparse.Namespace) -> tuple:
              "settle": (args.settle, task.physics.scene.settle_time),
              "bonds": (args.bonds, task.physics.scene.bond_element),
              "timestep-rule": (args.timestep_rule, task.physics.scene.timestep_rule)}
-    if args.physics is not None and physics_from_args(args).to_dict() != stored["task"]["physics"]:
+    if args.physics is not None and physics_from_args(args) != task.physics:
         given["physics"] = (args.physics, "other physics")
     conflicts = [f"--{k} {v} (run has {s})" for k, (v, s) in given.items() if v is not None and v != s]
     if conflicts:

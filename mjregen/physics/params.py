@@ -21,8 +21,9 @@ from dataclasses import asdict, dataclass, field, fields, replace
 from types import MappingProxyType
 from typing import Mapping
 
-from mjregen.errors import MjregenError
+from mjregen.errors import PhysicsParameterError
 from mjregen.grid import Material
+from mjregen.physics.migrate import PHYSICS_FORMAT, migrate_physics
 
 WAVEFORMS = ("contract", "symmetric")
 INTEGRATORS = ("euler", "rk4")
@@ -33,10 +34,6 @@ STEPPERS = ("auto", "native", "mujoco")
 TIMESTEP_RULES = ("network", "stiffest_bond")
 MODE_RATIO = 2.7  # fastest bond-network mode / a Timoshenko bond's sqrt(k/m) (`Physics.timestep`)
 POINT_RADIUS = 1e-6  # contact_shape "point": radius of the centre sphere, in voxel lengths
-
-
-class PhysicsParameterError(MjregenError, ValueError):
-    """A material or scene parameter is missing, non-finite or out of its valid range."""
 
 
 def _check(name: str, value: float, *, low: float, high: float = math.inf,
@@ -324,33 +321,22 @@ class Physics:
         return (Physics, (dict(self.materials), self.scene))
 
     def to_dict(self) -> dict:
-        """JSON-ready description: materials by lower-case name, and the scene."""
+        """JSON-ready description: its format, materials by lower-case name, the scene."""
         return {
+            "format": PHYSICS_FORMAT,
             "materials": {m.name.lower(): asdict(p) for m, p in sorted(self.materials.items())},
             "scene": asdict(self.scene),
         }
 
     @classmethod
     def from_dict(cls, values: dict) -> Physics:
-        """Inverse of `to_dict` (validated like any construction)."""
+        """Inverse of `to_dict`, for a description of any format (`migrate_physics`),
+        validated like any construction."""
+        values = migrate_physics(values)
         try:
             materials = {Material[name.upper()]: MaterialProperties(**props)
                          for name, props in values["materials"].items()}
-            scene = dict(values["scene"])
-            # descriptions written before beam bonds existed (runs, asset manifests) meant
-            # the tendon bonds, then the only element
-            scene.setdefault("bond_element", "tendons")
-            # ... and before the native stepper: mj_step (same motion to rounding)
-            scene.setdefault("stepper", "mujoco")
-            scene.setdefault("timestep_rule", "stiffest_bond")  # ... and before "network"
-            # every pipeline computes its bonds one way now: the voxel plugin (contact_shape
-            # "engine") or MuJoCo tendons; the strain-rate drive is gone (never used)
-            scene.pop("bond_backend", None)
-            if scene.pop("damp_strain_rate", False):
-                raise PhysicsParameterError(
-                    "this physics description damps the strain rate (damp_strain_rate), "
-                    "which mjregen no longer models")
-            return cls(materials=materials, scene=Scene(**scene))
+            return cls(materials=materials, scene=Scene(**values["scene"]))
         except (KeyError, TypeError) as error:
             raise PhysicsParameterError(f"invalid physics description: {error}") from None
 
@@ -426,8 +412,8 @@ def sphere_physics() -> Physics:
     materials = {m: replace(p, friction=1.0) for m, p in paper_materials().items()}
     return Physics(materials=materials, scene=Scene(
         contact_shape="sphere", contact_stiffness=2.0, contact_damping=1.2,
-        bond_damping_ratio=0.4, drag_ratio=0.001, bond_element="tendons",
-        timestep_rule="stiffest_bond"))
+        bond_model="timoshenko", self_collision=False, bond_damping_ratio=0.4,
+        drag_ratio=0.001, bond_element="tendons", timestep_rule="stiffest_bond"))
 
 
 def legacy_physics() -> Physics:
@@ -436,5 +422,6 @@ def legacy_physics() -> Physics:
     stiffest-bond time step."""
     materials = {m: replace(p, friction=0.5) for m, p in paper_materials().items()}
     return Physics(materials=materials, scene=Scene(
-        contact_shape="box", contact_stiffness=None, bond_damping_ratio=1.0, drag_ratio=0.0,
-        self_collision=False, bond_element="tendons", timestep_rule="stiffest_bond"))
+        contact_shape="box", contact_stiffness=None, bond_model="timoshenko",
+        bond_damping_ratio=1.0, drag_ratio=0.0, self_collision=False, bond_element="tendons",
+        timestep_rule="stiffest_bond"))
