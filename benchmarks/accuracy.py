@@ -5,9 +5,9 @@ Two studies (issue #7), each written to ``docs/`` as CSV plus a Markdown table o
 ``accuracy``: for each robot (2D sheet, the paper's tripod with hard voxels, a 7×7×7 mixed
   block, the paper's evolved multiped), each integrator variant and a sweep of time steps
   (multiples of the paper engine's rule dt_p = 0.9 / (2π sqrt(k/m)), i.e. ``timestep_safety``
-  1), run the same evaluation as `mjregen.simulate` — settle, then actuate — and compare the
-  final centre of mass (voxel lengths) and the fitness with a reference run: Euler at 1/16 of
-  the smallest step of the sweep. The window is shortened to settle 0.05 s + 0.1 s of
+  1), run the same evaluation as `mjregen.physics.simulate` — settle, then actuate — and
+  compare the final centre of mass (voxel lengths) and the fitness with a reference run:
+  Euler at 1/16 of the smallest step of the sweep. The window is shortened to settle 0.05 s + 0.1 s of
   actuation (4 cycles), so that the references stay affordable; ``--full-window`` adds the
   paper's 0.05 + 0.5 s for the tripod, to show how chaotic contact dynamics limit
   convergence over long windows. Every step divides the settle time exactly, so all runs
@@ -51,11 +51,12 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from mjregen.compile import compile_robot, pipeline_of
-from mjregen.grid import Material, Robot
 from mjregen import physics as physics_module
-from mjregen.physics import Physics
-from mjregen.simulate import VOXEL_COST, Simulation
+from mjregen.fitness import VOXEL_COST
+from mjregen.grid import Material, Robot
+from mjregen.physics import MujocoPipeline, Physics
+from mjregen.physics.compile import compile_robot
+from mjregen.physics.simulation import Simulation
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
@@ -86,7 +87,8 @@ class Run:
     """One evaluation: settle `settle` s, actuate `measured` s.
 
     dt: s, or None for the physics' automatic time step; integrator: a key of INTEGRATORS
-    with an optional "-mid" suffix, or None for the scene's; kick: m/s (rad/s), standard
+    with an optional "-mid" suffix, or None for the pipeline's (the voxel pipeline: Euler);
+    kick: m/s (rad/s), standard
     deviation of random initial velocities of every dof (seed 0), to excite every mode.
     """
 
@@ -101,22 +103,33 @@ class Run:
     kick: float = 0.0
 
 
+def mujoco_twin(physics: Physics) -> Physics:
+    """The pure-MuJoCo pipeline nearest a voxel-pipeline `physics`: MuJoCo's tendons (the
+    voxel plugin's tendon bonds) and "point" contacts (the engine floor's nearest) with the
+    floor's spring and damper, the same bond model, self-collision radius and time-step
+    rule."""
+    voxel = physics.pipeline
+    return physics.replace(pipeline=MujocoPipeline(
+        contact_shape="point", bond_model=voxel.bond_model,
+        contact_stiffness=voxel.floor_stiffness, contact_damping=voxel.floor_damping,
+        collision_radius=voxel.collision_radius, timestep_rule=voxel.timestep_rule))
+
+
 def evaluate(run: Run) -> dict:
-    """Run `run` like `mjregen.simulate`; returns a dict of the outcome.
+    """Run `run` like `mjregen.physics.simulate`; returns a dict of the outcome.
 
     Keys: stable, reason, dt, steps, cpu (s of stepping), com_start/com_end ((3,) m),
     distance (voxel lengths, planar COM displacement after the settle), fitness, max_speed
     (m/s, fastest voxel at the end).
     """
-    name = run.integrator or run.physics.scene.integrator
+    name = run.integrator or getattr(run.physics.pipeline, "integrator", "euler")
     # the voxel plugin starts the muscles at the scene's settle time
-    physics = run.physics.replace_scene(settle_time=run.settle)
-    if name != "euler" and pipeline_of(physics.scene) == "voxel":
+    physics = run.physics.replace(settle_time=run.settle)
+    if name != "euler" and physics.pipeline.name == "voxel":
         # Euler runs what `simulate` runs (the voxel plugin: beam bonds, engine floor, native
         # stepper); the other integrators run MuJoCo's own tendons and contacts, the engine
         # floor's nearest ("point"), with the muscles driven from Python (so "-mid" applies)
-        physics = physics.replace_scene(contact_shape="point", bond_element="tendons",
-                                        stepper="mujoco")
+        physics = mujoco_twin(physics)
     compiled = compile_robot(run.robot, physics=physics, elevation=run.elevation,
                              clamped=run.clamped)
     model = compiled.model
@@ -126,7 +139,7 @@ def evaluate(run: Run) -> dict:
         model.opt.timestep = run.dt
     dt = float(model.opt.timestep)
     cls = MidpointSimulation if midpoint else Simulation
-    sim = cls(model, scene=physics.scene, muscles=compiled.muscles, actuation_start=run.settle,
+    sim = cls(model, physics=physics, muscles=compiled.muscles, actuation_start=run.settle,
               plugin_instance=compiled.plugin_instance)
     if run.kick:
         sim.data.qvel[:] = np.random.default_rng(0).normal(0.0, run.kick, model.nv)
@@ -166,7 +179,7 @@ def max_voxel_speed(model: mujoco.MjModel, data: mujoco.MjData) -> float:
 
 def paper_rule_dt(robot: Robot, physics: Physics) -> float:
     """s: the paper engine's time step (timestep_safety 1) for `robot`."""
-    return compile_robot(robot, physics=physics.replace_scene(timestep_safety=1.0)).timestep
+    return compile_robot(robot, physics=physics.replace(timestep_safety=1.0)).timestep
 
 
 def dividing_dt(target: float, unit: float = SETTLE) -> float:
@@ -441,7 +454,7 @@ class Case:
     run: Run  # with dt None: the automatic step at the physics' timestep_safety
 
     def at(self, safety: float) -> Run:
-        return replace(self.run, physics=self.run.physics.replace_scene(timestep_safety=safety))
+        return replace(self.run, physics=self.run.physics.replace(timestep_safety=safety))
 
 
 def stability_cases(quick: bool = False) -> list[Case]:
@@ -454,21 +467,24 @@ def stability_cases(quick: bool = False) -> list[Case]:
     cases = []
     for factor in (1, 10, 100, 1000):
         cases.append(Case(f"tripod hard E x{factor}",
-                          Run(tripod, Physics(materials=scaled_hard(factor), scene=paper.scene), **stiff)))
+                          Run(tripod, Physics(materials=scaled_hard(factor), scene=paper.scene,
+                                              pipeline=paper.pipeline), **stiff)))
     cases.append(Case("hard block 4^3 E x1000",
-                      Run(block(4, 2), Physics(materials=scaled_hard(1000), scene=paper.scene), **stiff)))
+                      Run(block(4, 2), Physics(materials=scaled_hard(1000), scene=paper.scene,
+                                               pipeline=paper.pipeline), **stiff)))
     for amplitude, waveform in ((0.14, "contract"), (0.3, "contract"), (0.5, "contract"),
                                 (0.5, "symmetric")):
         cases.append(Case(f"tripod strain {amplitude:g} {waveform}",
                           Run(tripod, Physics(materials=muscle_strain(amplitude),
-                                              scene=replace(paper.scene, waveform=waveform)),
+                                              scene=replace(paper.scene, waveform=waveform),
+                                              pipeline=paper.pipeline),
                               **short)))
     for zeta in (0.05, 0.1, 0.25, 0.5, 1.0, 1.5, 2.0):
         cases.append(Case(f"mixed block 5^3 zeta {zeta:g}",
-                          Run(zeta_robot, paper.replace_scene(bond_damping_ratio=zeta),
+                          Run(zeta_robot, paper.replace(bond_damping_ratio=zeta),
                               **short)))
         cases.append(Case(f"tripod zeta {zeta:g}",
-                          Run(tripod, paper.replace_scene(bond_damping_ratio=zeta), **short)))
+                          Run(tripod, paper.replace(bond_damping_ratio=zeta), **short)))
     for code in Material:
         if code != Material.EMPTY:
             cases.append(Case(f"block 7^3 {code.name.lower()}", Run(block(7, code), paper,
@@ -480,7 +496,8 @@ def stability_cases(quick: bool = False) -> list[Case]:
                                               paper, **short)))
     cases.append(Case("tower 1x1x7 muscle+ 50%", Run(
         Robot.from_body(np.full((1, 1, 7), 3, np.int8)),
-        Physics(materials=muscle_strain(0.5), scene=replace(paper.scene, waveform="symmetric")),
+        Physics(materials=muscle_strain(0.5), scene=replace(paper.scene, waveform="symmetric"),
+                pipeline=paper.pipeline),
         **short)))
     cases.append(Case("cantilever 10 hard clamped", Run(
         Robot.from_body(np.full((10, 1, 1), 2, np.int8)), paper, elevation=5e-3,
@@ -493,7 +510,8 @@ def stability_cases(quick: bool = False) -> list[Case]:
                                                         **short)))
     cases.append(Case("muscle+ block 4^3 50% symmetric", Run(
         block(4, 3), Physics(materials=muscle_strain(0.5),
-                             scene=replace(paper.scene, waveform="symmetric")), **short)))
+                             scene=replace(paper.scene, waveform="symmetric"),
+                             pipeline=paper.pipeline), **short)))
     # resting blocks are symmetric and stay unexcited; kicked ones show the network's limit
     for code in (Material.SOFT, Material.HARD):
         cases.append(Case(f"block 4^3 {code.name.lower()} kicked 1 mm/s", Run(
@@ -586,7 +604,8 @@ def main(argv: list[str] | None = None) -> None:
                         help="physics every case starts from: default = Physics(), or NAME "
                         "for mjregen.physics.NAME_physics() (e.g. paper)")
     parser.add_argument("--timestep-rule", default="", choices=["", "network", "stiffest_bond"],
-                        help="Scene.timestep_rule of every case (default: the preset's); "
+                        help="the pipeline's timestep_rule in every case (default: the "
+                        "preset's); "
                         "the output files get the rule as a suffix")
     parser.add_argument("--robots", default="", help="accuracy: comma-separated subset")
     parser.add_argument("--quick", action="store_true", help="small robots only")
@@ -597,7 +616,7 @@ def main(argv: list[str] | None = None) -> None:
     BASE["physics"] = preset(args.preset)
     suffix = "" if args.preset == "default" else f"_{args.preset}"
     if args.timestep_rule:
-        BASE["physics"] = BASE["physics"].replace_scene(timestep_rule=args.timestep_rule)
+        BASE["physics"] = BASE["physics"].replace(timestep_rule=args.timestep_rule)
         suffix += f"_{args.timestep_rule}"
     if args.study == "accuracy":
         jobs = accuracy_jobs(variants=tuple(args.variants.split(",")),

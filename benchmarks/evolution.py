@@ -3,6 +3,7 @@ evolution.
 
     python benchmarks/evolution.py backends [--pop 20] [--seed 0] [--bonds beam|tendons]
         [--scene stepper=mujoco --scene timestep_rule=stiffest_bond]
+        [--scene pipeline=mujoco --scene contact_shape=point]
         [--backends serial process thread] [--json out.json]
     python benchmarks/evolution.py short-run [--pop 20] [--gens 5] [--out runs/short3d]
 
@@ -32,7 +33,10 @@ from mjregen.runs import run_evolution
 
 def backends(args: argparse.Namespace) -> dict:
     overrides = dict(item.split("=", 1) for item in args.scene)
-    physics = Physics().replace_scene(bond_element=args.bonds, **overrides)
+    physics = Physics().replace(**overrides)  # `pipeline=mujoco` switches pipeline first
+    if args.bonds is not None:
+        physics = physics.replace(bond_element=args.bonds)  # the voxel pipeline's
+    bonds = getattr(physics.pipeline, "bond_element", "tendons")  # MuJoCo's: 8 tendons
     task = LocomotionTask(nca=NCAConfig(dim=3, kind="ff"), physics=physics)
     genomes = random_genomes(task.nca, args.pop, seed=args.seed)
     rows, reference = [], None
@@ -55,8 +59,9 @@ def backends(args: argparse.Namespace) -> dict:
         row["parallel_efficiency"] = (serial / row["wall_s"] / row["workers"]
                                       if serial is not None else None)
         row["projected_paper_run_h"] = 100 * 300 / row["evals_per_s"] / 3600
-    print(f"3D ff, population {args.pop} (seed {args.seed}), {args.bonds} bonds, "
-          f"scene {overrides or 'default'}, {rows[0]['distinct_robots']} distinct robots")
+    print(f"3D ff, population {args.pop} (seed {args.seed}), {physics.pipeline.name} "
+          f"pipeline, {bonds} bonds, overrides {overrides or 'none'}, "
+          f"{rows[0]['distinct_robots']} distinct robots")
     print(f"{'backend':8s} {'wall s':>8s} {'sim cpu s':>9s} {'evals/s':>8s} {'efficiency':>10s} "
           f"{'paper run h':>11s}")
     for r in rows:
@@ -64,8 +69,8 @@ def backends(args: argparse.Namespace) -> dict:
         print(f"{r['backend']:8s} {r['wall_s']:8.1f} {r['simulation_cpu_s']:9.1f} {r['evals_per_s']:8.3f} "
               f"{'—' if efficiency is None else f'{efficiency:.2f}':>10s} "
               f"{r['projected_paper_run_h']:11.1f}")
-    return {"population": args.pop, "seed": args.seed, "bonds": args.bonds,
-            "scene": overrides, "rows": rows}
+    return {"population": args.pop, "seed": args.seed, "pipeline": physics.pipeline.name,
+            "bonds": bonds, "scene": overrides, "rows": rows}
 
 
 def short_run(args: argparse.Namespace) -> dict:
@@ -88,10 +93,12 @@ def main() -> None:
     parser.add_argument("--gens", type=int, default=5)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--out", default="runs/short3d")
-    parser.add_argument("--bonds", choices=("beam", "tendons"), default="beam",
-                        help="bond element (backends mode; default: the default, beam)")
+    parser.add_argument("--bonds", choices=("beam", "tendons"), default=None,
+                        help="the voxel pipeline's bond element (backends mode; default: "
+                             "beam)")
     parser.add_argument("--scene", action="append", default=[], metavar="KEY=VALUE",
-                        help="a string scene field (backends mode), e.g. stepper=mujoco")
+                        help="a string field of the scene or the pipeline (backends mode), "
+                             "e.g. stepper=mujoco, or pipeline=mujoco to switch pipeline")
     parser.add_argument("--backends", nargs="+", default=["serial", "process", "thread"],
                         choices=("serial", "process", "thread"),
                         help="backends to time (efficiency is relative to serial, if timed)")

@@ -8,7 +8,9 @@ and `docs/fidelity_*.png`, and the numbers to a JSON file.
         [--scene key=value ...] [--cases tripod,drop_voxel] [--reference DIR]
         [--doc docs/fidelity.md] [--json fidelity.json] [--no-plots]
 
-`--scene` overrides scene fields (JSON values: `--scene bond_damping_ratio=0.5`), and
+`--scene` overrides fields of the scene or of the preset's pipeline (JSON values:
+`--scene bond_damping_ratio=0.5`, `--scene floor_damping=0.6`; `--scene 'pipeline="mujoco"'`
+first switches to the pure-MuJoCo pipeline with its defaults), and
 `--friction 1.0` sets every material's friction: this is how the ablations in
 docs/fidelity.md were measured. Without `--doc` nothing is written but the table.
 
@@ -46,12 +48,13 @@ def physics_from_args(args: argparse.Namespace) -> Physics:
             m: dataclasses.replace(p, friction=args.friction, kinetic_friction=None
                                    if p.kinetic_friction is None
                                    else min(p.kinetic_friction, args.friction))
-            for m, p in physics.materials.items()}, scene=physics.scene)
+            for m, p in physics.materials.items()}, scene=physics.scene,
+            pipeline=physics.pipeline)
     changes = {}
     for item in args.scene:
         key, _, value = item.partition("=")
         changes[key] = json.loads(value)
-    return physics.replace_scene(**changes) if changes else physics
+    return physics.replace(**changes) if changes else physics
 
 
 def rows(result: CaseResult) -> list[tuple[str, str, float, float, str]]:
@@ -129,11 +132,11 @@ def plot(result: CaseResult, reference: Path, out: Path) -> Path | None:
 
 def _walk(item: tuple[str, Physics, float]) -> tuple[str, float, float]:
     from mjregen.grid import Robot
-    from mjregen.simulate import simulate
+    from mjregen.physics.simulation import simulate
 
     name, physics, safety = item
     robot = Robot(np.load(ROOT / "assets" / "robots" / "paper" / f"{name}.npy"))
-    result = simulate(robot, physics=physics.replace_scene(timestep_safety=safety))
+    result = simulate(robot, physics=physics.replace(timestep_safety=safety))
     return name, safety, result.distance
 
 

@@ -25,7 +25,7 @@ import numpy as np
 
 from mjregen.grid import Robot
 from mjregen.physics import Physics
-from mjregen.simulate import simulate
+from mjregen.physics.simulation import simulate
 
 ROOT = Path(__file__).resolve().parents[1]
 MODELS = {
@@ -33,8 +33,10 @@ MODELS = {
     "mj-step": {"stepper": "mujoco"},  # the same model stepped by mj_step
     "tendon-bonds": {"bond_element": "tendons"},  # the plugin with 8 tendons per bond
     "stiffest-bond": {"timestep_rule": "stiffest_bond"},  # the step of the stiffest block
-    # the pure-MuJoCo pipeline: MuJoCo tendons, point contacts, collision spheres, viscosity
-    "pure-mujoco": {"contact_shape": "point", "bond_element": "tendons"},
+    # the pure-MuJoCo pipeline nearest the default: MuJoCo tendons, point contacts with the
+    # engine floor's constants, collision spheres, viscosity, the network time step
+    "pure-mujoco": {"pipeline": "mujoco", "contact_shape": "point", "bond_model": "euler_bernoulli",
+                    "contact_damping": 0.8, "collision_radius": 0.625, "timestep_rule": "network"},
 }
 
 
@@ -74,7 +76,7 @@ def evaluate(robot: Robot, physics: Physics) -> dict:
 def measure(names: list[str], models: list[str], rounds: int, engine) -> dict:
     """{robot: {model or "voxelyze": [per-round dicts]}}, rounds interleaved."""
     table = robots()
-    physics = {m: Physics().replace_scene(**MODELS[m]) for m in models}
+    physics = {m: Physics().replace(**MODELS[m]) for m in models}
     samples = {name: {key: [] for key in ["voxelyze", *models]} for name in names}
     for name in names:  # warm up: library build, imports, first compile
         evaluate(table[name], physics[models[0]])

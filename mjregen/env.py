@@ -7,7 +7,7 @@ tools written against `dm_env` (acme, dm_env's test helpers, ...) work with it; 
 tools that need a dm_control ``Physics`` (its viewer, ``control.Environment`` wrappers) do not.
 
 Episode: `reset` compiles nothing; it restores the initial state, lets the robot settle
-without actuation for the scene's settle time (as `mjregen.simulate.simulate` does) and
+without actuation for the scene's settle time (as `mjregen.physics.simulation.simulate` does) and
 returns the FIRST time step (`UnstableSettleError` if the robot diverges while settling).
 Each `step` holds the action for `control_timestep` seconds of physics. The episode ends
 (truncation, discount 1) after `duration` seconds of control, or (termination, discount 0,
@@ -37,11 +37,11 @@ import mujoco
 import numpy as np
 from dm_env import specs
 
-from mjregen.compile import CompiledRobot, compile_robot, pipeline_of
 from mjregen.errors import MjregenError
 from mjregen.grid import Robot
 from mjregen.physics import Physics
-from mjregen.simulate import Simulation
+from mjregen.physics.compile import CompiledRobot, compile_robot
+from mjregen.physics.simulation import Simulation
 
 MUSCLE_GROUPS = ("muscle_plus", "muscle_minus")
 
@@ -70,7 +70,7 @@ class RobotEnv(dm_env.Environment):
             physics, robot = robot.physics, robot.robot
         physics = Physics() if physics is None else physics
         # the voxel plugin takes the strains from two control inputs
-        drive = "ctrl" if pipeline_of(physics.scene) == "voxel" else "waveform"
+        drive = "ctrl" if physics.pipeline.name == "voxel" else "waveform"
         compiled = compile_robot(robot, physics=physics, drive=drive)
         self.compiled = compiled
         scene = compiled.physics.scene
@@ -87,7 +87,8 @@ class RobotEnv(dm_env.Environment):
         self.n_control_steps = max(1, round(duration / self.control_timestep))
         self._n_settle = round(settle / dt)
         self._model = compiled.model  # pure MuJoCo: its muscle rest lengths are rewritten
-        self._sim = Simulation(self._model, scene=scene, plugin_instance=compiled.plugin_instance)
+        self._sim = Simulation(self._model, physics=physics,
+                               plugin_instance=compiled.plugin_instance)
         self._planar = [0, 1] if compiled.robot.dim == 3 else [0]
         self._voxel = scene.voxel_size
         self._high = 0.0 if scene.waveform == "contract" else 1.0

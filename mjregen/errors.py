@@ -23,3 +23,7 @@ class InvalidGenomeError(MjregenError, ValueError):
 
 class PhysicsParameterError(MjregenError, ValueError):
     """A material or scene parameter is missing, non-finite or out of its valid range."""
+
+
+class CompileError(MjregenError, ValueError):
+    """A robot cannot be compiled with the given options (e.g. empty, bad clamp index)."""

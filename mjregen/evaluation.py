@@ -11,9 +11,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from mjregen.fitness import locomotion_fitness
 from mjregen.grid import Robot
 from mjregen.physics import Physics
-from mjregen.simulate import simulate
+from mjregen.physics.simulation import simulate
 
 
 @dataclass(frozen=True)
@@ -27,7 +28,8 @@ class RobotJob:
 
 @dataclass(frozen=True)
 class RobotEvaluation:
-    """The parts of a `mjregen.simulate.Result` an evolution needs."""
+    """The parts of a `mjregen.physics.simulation.Result` an evolution needs, and its
+    locomotion fitness."""
 
     fitness: float
     distance: float
@@ -42,7 +44,7 @@ def evaluate_robot(job: RobotJob) -> RobotEvaluation:
     """Simulate `job.grid`; never raises for an unstable run (see `simulate`)."""
     result = simulate(Robot(job.grid), physics=job.physics, duration=job.duration)
     return RobotEvaluation(
-        fitness=result.fitness, distance=result.distance, n_voxels=result.n_voxels,
+        fitness=locomotion_fitness(result), distance=result.distance, n_voxels=result.n_voxels,
         stable=result.stable, reason=result.reason, steps=result.steps, cpu_time=result.cpu_time,
     )
 

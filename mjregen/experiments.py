@@ -107,7 +107,7 @@ class Scale:
     def physics(self, dim: int) -> Physics:
         """Default physics, with this scale's settle time for `dim` if it has one."""
         physics = Physics()
-        return physics if self.settle is None else physics.replace_scene(settle_time=self.settle[dim])
+        return physics if self.settle is None else physics.replace(settle_time=self.settle[dim])
 
     def duration(self, dim: int) -> float | None:
         """s of walking measured; None = the paper's."""

@@ -10,13 +10,7 @@ import numpy as np
 
 from mjregen.fileio import atomic_open
 from mjregen.grid import Material
-
-MATERIAL_RGBA: dict[Material, tuple[float, float, float, float]] = {
-    Material.SOFT: (0.55, 0.80, 1.00, 1.0),  # light blue
-    Material.HARD: (0.10, 0.22, 0.75, 1.0),  # dark blue
-    Material.MUSCLE_PLUS: (0.90, 0.15, 0.15, 1.0),  # red
-    Material.MUSCLE_MINUS: (0.20, 0.75, 0.25, 1.0),  # green
-}
+from mjregen.physics.mjcf import MATERIAL_RGBA
 
 
 def growth_figure(states: np.ndarray, path: str | os.PathLike, *, overwrite: bool = False,

@@ -17,10 +17,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mjregen.evaluation import PopulationEvaluation, RobotJob, evaluate_robot
+from mjregen.fitness import EMPTY_FITNESS, UNSTABLE_FITNESS
 from mjregen.nca import NCAConfig, grow
 from mjregen.parallel import Backend
 from mjregen.physics import Physics
-from mjregen.simulate import EMPTY_FITNESS, UNSTABLE_FITNESS
 
 
 @dataclass(frozen=True)

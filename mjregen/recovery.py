@@ -14,9 +14,11 @@ from pathlib import Path
 import numpy as np
 
 from mjregen.fileio import atomic_open
+from mjregen.fitness import locomotion_fitness
 from mjregen.grid import Robot
 from mjregen.nca import NCA
 from mjregen.physics import Physics
+from mjregen.physics.simulation import simulate
 from mjregen.regen import (
     RegrowthTask,
     paper_cut,
@@ -24,7 +26,6 @@ from mjregen.regen import (
     similarity,
     state_of_robot,
 )
-from mjregen.simulate import simulate
 
 ROLES = ("original", "damaged", "regrown")
 
@@ -109,7 +110,7 @@ def measure_recovery(robots: dict[str, Robot], *, physics: Physics | None = None
         robot_similarity={role: float(overlap[i]) for i, role in enumerate(ROLES)},
         voxels={role: robots[role].n_voxels for role in ROLES},
         distance={role: float(results[role].distance) for role in ROLES},
-        fitness={role: float(results[role].fitness) for role in ROLES},
+        fitness={role: float(locomotion_fitness(results[role])) for role in ROLES},
         stable={role: results[role].stable for role in ROLES},
         duration=float(physics.scene.timing(dim)[1] if duration is None else duration),
     )

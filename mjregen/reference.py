@@ -21,10 +21,10 @@ from typing import Callable
 import mujoco
 import numpy as np
 
-from mjregen.compile import compile_robot
 from mjregen.grid import Material, Robot
 from mjregen.physics import Physics
-from mjregen.simulate import Simulation, simulation_of
+from mjregen.physics.compile import compile_robot
+from mjregen.physics.simulation import Simulation, simulation_of
 
 PAPER_ROBOTS = Path(__file__).resolve().parent.parent / "assets" / "robots" / "paper"
 
@@ -159,7 +159,7 @@ def slide_bar(physics: Physics, speed: float) -> CaseResult:
 def bar_red_green(physics: Physics) -> CaseResult:
     """Red + green voxel on the floor, actuated from t = 0, 0.2 s: centre distance."""
     robot = Robot.from_body(np.array([3, 4], dtype=np.int8).reshape(2, 1, 1))
-    compiled = compile_robot(robot, physics=physics.replace_scene(settle_time=0.0))
+    compiled = compile_robot(robot, physics=physics.replace(settle_time=0.0))
     sim = simulation_of(compiled)
     t, x, reason = _run_recording(sim, compiled.body_ids, 0.2, every=1)
     length = np.linalg.norm(x[:, 1] - x[:, 0], axis=1)
@@ -172,7 +172,7 @@ def bar_red_green(physics: Physics) -> CaseResult:
 def cantilever(physics: Physics) -> CaseResult:
     """5 hard voxels along x, the first clamped, floor off, 0.3 s: tip sag."""
     compiled = compile_robot(_block((5, 1, 1), Material.HARD),
-                             physics=physics.replace_scene(floor=False), clamped=[(1, 1, 1)])
+                             physics=physics.replace(floor=False), clamped=[(1, 1, 1)])
     sim = simulation_of(compiled)
     t, x, reason = _run_recording(sim, compiled.body_ids, 0.3, every=1)
     sag = x[0, -1, 2] - x[:, -1, 2]

@@ -39,14 +39,14 @@ import numpy as np
 from tqdm import tqdm
 
 from mjregen.errors import MjregenError
-from mjregen.fileio import atomic_open
 from mjregen.figures import MATERIAL_RGBA
+from mjregen.fileio import atomic_open
 from mjregen.grid import Material
 
 if TYPE_CHECKING:
     import mujoco
 
-    from mjregen.compile import CompiledRobot
+    from mjregen.physics.compile import CompiledRobot
 
 _log = logging.getLogger(__name__)
 
@@ -182,7 +182,7 @@ class RobotRenderer:
     lights added (the physics model is not changed).
 
     Args:
-      compiled: the robot (`mjregen.compile.compile_robot`).
+      compiled: the robot (`mjregen.physics.compile.compile_robot`).
       view: image size and camera.
       backend: "egl", "osmesa" or "glfw"; None = `select_gl_backend()`.
     Raises:
@@ -336,7 +336,7 @@ def walk_frame_count(sim_time: float, *, fps: int, slowdown: float) -> int:
 
 def record_walk(compiled: CompiledRobot, *, duration: float | None = None, fps: int = 30,
                 slowdown: float = 10.0) -> Walk:
-    """Simulate the robot as `mjregen.simulate.simulate` does and sample states for a video.
+    """Simulate the robot as `mjregen.physics.simulation.simulate` does and sample states for a video.
 
     The run is the settle time plus `duration` of actuation (the same steps as `simulate`),
     sampled at `walk_frame_count(...)` evenly spaced instants, first and last step included.
@@ -350,7 +350,7 @@ def record_walk(compiled: CompiledRobot, *, duration: float | None = None, fps: 
     Raises:
       ValueError: non-positive `fps`, `slowdown` or negative `duration`.
     """
-    from mjregen.simulate import simulation_of
+    from mjregen.physics.simulation import simulation_of
 
     if isinstance(fps, bool) or not isinstance(fps, int) or fps < 1:
         raise ValueError(f"fps must be a positive integer, got {fps!r}")

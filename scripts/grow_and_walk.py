@@ -93,8 +93,8 @@ def _load_source(args: argparse.Namespace) -> tuple[Robot, np.ndarray | None, st
         recorded = _recorded_physics(path)
         if recorded is not None:
             physics = recorded
-            source += (" (walked with its recorded physics: bond element "
-                       f"{physics.scene.bond_element!r})")
+            source += (f" (walked with its recorded physics: {physics.pipeline.name} "
+                       f"pipeline, {getattr(physics.pipeline, 'bond_element', 'tendons')} bonds)")
     growth = nca.grow()
     return growth.robot(), np.asarray(growth.states[0]), source, physics
 
@@ -139,10 +139,11 @@ def run(args: argparse.Namespace) -> dict:
     if view is not None:  # a missing renderer fails before the simulation
         print(f"rendering with MUJOCO_GL={select_gl_backend()}")
 
-    from mjregen.compile import compile_robot
     from mjregen.figures import growth_figure
+    from mjregen.fitness import locomotion_fitness
+    from mjregen.physics.compile import compile_robot
+    from mjregen.physics.simulation import simulate
     from mjregen.render import record_walk, write_video
-    from mjregen.simulate import simulate
 
     print(f"source: {source}")
     if states is not None:
@@ -162,12 +163,12 @@ def run(args: argparse.Namespace) -> dict:
     with atomic_open(out / "robot.xml", "w", overwrite=args.force) as handle:
         handle.write(compiled.to_xml())
     result = simulate(robot, physics=physics, duration=args.duration)
-    print(f"walked: distance {result.distance:.4f} voxel lengths, fitness {result.fitness:.4f}, "
+    print(f"walked: distance {result.distance:.4f} voxel lengths, fitness {locomotion_fitness(result):.4f}, "
           f"{result.n_voxels} voxels" + ("" if result.stable else f", UNSTABLE ({result.reason})"))
     summary = {"source": source, "voxels": result.n_voxels, "distance": result.distance,
-               "fitness": result.fitness, "stable": result.stable, "reason": result.reason,
+               "fitness": locomotion_fitness(result), "stable": result.stable, "reason": result.reason,
                "sim_time": result.sim_time, "timestep": result.timestep,
-               "duration": args.duration, "bond_element": physics.scene.bond_element,
+               "duration": args.duration, "bond_element": getattr(physics.pipeline, "bond_element", "tendons"),
                "files": ["robot.npy", "robot.xml"]}
     if states is not None:
         summary["files"].append("growth.png")

@@ -197,9 +197,9 @@ class Report:
             timing = (f"settle {fmt(settle_s)} s + walk {fmt(walk_s)} s"
                       + (" (the paper's)" if same else ""))
             stored = Physics.from_dict(physics) if isinstance(physics, dict) and physics else None
-            if stored == Physics().replace_scene(settle_time=settle):
+            if stored == Physics().replace(settle_time=settle):
                 default = "today's default physics (= `paper_physics()`)"
-            elif stored == paper_physics().replace_scene(settle_time=settle,
+            elif stored == paper_physics().replace(settle_time=settle,
                                                          bond_element="tendons"):
                 default = "`paper_physics()` with tendon bonds (the default before beams, #8)"
             else:
@@ -345,8 +345,8 @@ class Report:
             return
         from PIL import Image
 
-        from mjregen.compile import compile_robot
         from mjregen.grid import Robot
+        from mjregen.physics.compile import compile_robot
         from mjregen.render import RobotRenderer, View
 
         cells = []

@@ -96,8 +96,9 @@ def measure(npz: Path, run_config: dict, expected_robot: Path | None = None) -> 
         from `expected_robot` (the run's own .npy).
     """
     from mjregen.checkpoint import load_nca
+    from mjregen.fitness import locomotion_fitness
     from mjregen.physics import Physics
-    from mjregen.simulate import simulate
+    from mjregen.physics.simulation import simulate
 
     task = run_config.get("task", {})
     if not isinstance(task.get("physics"), dict):
@@ -111,7 +112,7 @@ def measure(npz: Path, run_config: dict, expected_robot: Path | None = None) -> 
     result = simulate(robot, physics=physics, duration=duration)
     settle, measured = physics.scene.timing(robot.dim)
     return {
-        "nca": nca.config.to_dict(), "robot": robot, "fitness": float(result.fitness),
+        "nca": nca.config.to_dict(), "robot": robot, "fitness": float(locomotion_fitness(result)),
         "distance": float(result.distance) if result.stable else None, "stable": result.stable,
         "reason": result.reason, "voxels": robot.n_voxels, "materials": material_counts(robot),
         "evaluation": {"physics": task["physics"], "settle_s": settle,

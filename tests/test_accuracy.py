@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from mjregen.grid import Material, Robot
-from mjregen.physics import Physics
+from mjregen.physics import MujocoPipeline, Physics
 
 _SPEC = importlib.util.spec_from_file_location(
     "accuracy_benchmark", Path(__file__).resolve().parents[1] / "benchmarks" / "accuracy.py")
@@ -36,7 +36,7 @@ def CANTILEVER_RUN(dt: float, integrator: str) -> Run:
     Tendon bonds: Euler steps them in the voxel plugin, RK4 as MuJoCo's tendons, the same
     ODE (tests/test_native.py; beams differ from tendons by a third of Euler's error)."""
     robot = Robot.from_body(np.full((3, 1, 1), Material.HARD, dtype=np.int8))
-    return Run(robot, Physics().replace_scene(floor=False, bond_element="tendons"),
+    return Run(robot, Physics().replace(floor=False, bond_element="tendons"),
                settle=0.004, measured=0.0, dt=dt, integrator=integrator, clamped=((1, 1, 1),))
 
 
@@ -55,12 +55,27 @@ def test_halving_dt_reduces_error_as_the_order_predicts(integrator, order,
     assert all(abs(p - order) < 0.35 for p in observed), (errors, observed)
 
 
+def test_other_integrators_run_the_voxel_pipelines_mujoco_twin():
+    """Integrators other than Euler (and "-mid") need MuJoCo's tendons and contacts: the
+    same bonds, the engine floor's constants on "point" contacts, the same time-step rule."""
+    physics = Physics().replace(bond_model="timoshenko", collision_radius=0.5,
+                                floor_damping=0.7, settle_time=0.01)
+    twin = accuracy.mujoco_twin(physics)
+    assert twin.scene == physics.scene and twin.materials == physics.materials
+    assert twin.pipeline == MujocoPipeline(
+        contact_shape="point", bond_model="timoshenko", contact_stiffness=2.0,
+        contact_damping=0.7, collision_radius=0.5, timestep_rule="network")
+    run = CANTILEVER_RUN(1e-5, "rk4")
+    assert evaluate(run)["dt"] == 1e-5
+    assert accuracy.mujoco_twin(run.physics).pipeline.bond_model == "euler_bernoulli"
+
+
 def muscle_pair_run(dt: float, integrator: str) -> Run:
     """Two muscle voxels in phase, the first clamped (floor and gravity off),
     symmetric drive: the free voxel's motion moves the centre of mass."""
     robot = Robot.from_body(np.array([[[Material.MUSCLE_PLUS]], [[Material.MUSCLE_PLUS]]],
                                      dtype=np.int8))
-    physics = Physics().replace_scene(floor=False, gravity=0.0, waveform="symmetric")
+    physics = Physics().replace(floor=False, gravity=0.0, waveform="symmetric")
     return Run(robot, physics, settle=0.0, measured=0.005, dt=dt, integrator=integrator,
                clamped=((1, 1, 1),))
 
@@ -111,10 +126,10 @@ EXTREME_CASES = {
         measured=0.0, elevation=5e-3, clamped=((1, 1, 1),)),
     "muscle block 3^3 in phase, ±50 %": lambda: Run(
         block(3, Material.MUSCLE_PLUS),
-        Physics(materials=strain(0.5)).replace_scene(waveform="symmetric"),
+        Physics(materials=strain(0.5)).replace(waveform="symmetric"),
         settle=0.005, measured=0.03),
     "soft block 4^3, zeta 0.05": lambda: Run(block(4, Material.SOFT),
-                                             Physics().replace_scene(bond_damping_ratio=0.05),
+                                             Physics().replace(bond_damping_ratio=0.05),
                                              settle=0.02, measured=0.0),
 }
 
@@ -126,23 +141,22 @@ def test_automatic_time_step_is_stable_on_extreme_cases(name):
 
 
 def heavily_damped_block(safety: float | None = None) -> Run:
-    physics = Physics().replace_scene(bond_damping_ratio=2.0)
+    physics = Physics().replace(bond_damping_ratio=2.0)
     if safety is not None:
-        physics = physics.replace_scene(timestep_safety=safety)
+        physics = physics.replace(timestep_safety=safety)
     return Run(block(4, Material.SOFT), physics, settle=0.03, measured=0.0)
 
 
 @pytest.mark.parametrize("bond_model", ["euler_bernoulli", "timoshenko"])
 @pytest.mark.parametrize("zeta", [0.4, 2.0])
 def test_time_step_rule_puts_the_limit_at_safety_one(bond_model, zeta):
-    """`Physics.timestep` (rule "stiffest_bond") is Euler's stability limit of a block's
+    """`stiffest_bond_step` (rule "stiffest_bond") is Euler's stability limit of a block's
     damped bond network: a kicked 4³ block runs at safety 1.0 and diverges at 1.25, whatever
     the bond model and damping (measured on 4³ and 5³ blocks: stable at 1.0, unstable at
     1.1, for ζ 0.4, 1 and 2)."""
     def run(safety: float) -> bool:
-        physics = Physics().replace_scene(bond_damping_ratio=zeta, bond_model=bond_model,
-                                          timestep_safety=safety,
-                                          timestep_rule="stiffest_bond")
+        physics = Physics().replace(bond_damping_ratio=zeta, bond_model=bond_model,
+                                    timestep_safety=safety, timestep_rule="stiffest_bond")
         return evaluate(Run(block(4, Material.SOFT), physics, settle=0.03, measured=0.0,
                             kick=1e-3))["stable"]
 

@@ -17,9 +17,10 @@ import numpy as np
 import pytest
 
 from mjregen.checkpoint import load_nca
+from mjregen.fitness import locomotion_fitness
 from mjregen.grid import Material, Robot
-from mjregen.physics import Physics
-from mjregen.simulate import simulate
+from mjregen.physics import Physics, Scene, VoxelPipeline, migrate_physics
+from mjregen.physics.simulation import simulate
 
 NCA_DIR = Path(__file__).resolve().parents[1] / "assets" / "nca"
 MANIFEST = json.loads((NCA_DIR / "manifest.json").read_text())
@@ -67,10 +68,41 @@ def test_shipped_nca_reproduces_its_manifest(key):
         if material != Material.EMPTY:
             assert counts.get(material, 0) == entry["robot"][material.name.lower()]
     evaluation = entry["evaluation"]
-    result = simulate(robot, physics=Physics.from_dict(evaluation["physics"]),
-                      duration=evaluation["duration_s"])
+    physics = Physics.from_dict(evaluation["physics"])  # migrated from its format
+    result = simulate(robot, physics=physics, duration=evaluation["duration_s"])
     assert result.stable == entry["stable"]
-    assert result.fitness == pytest.approx(entry["fitness"], rel=RTOL, abs=ATOL)
+    fitness = locomotion_fitness(result)
+    assert fitness == pytest.approx(entry["fitness"], rel=RTOL, abs=ATOL)
     if entry["distance"] is not None:
         assert result.distance == pytest.approx(entry["distance"], rel=RTOL, abs=ATOL)
-    assert np.isfinite(result.fitness)
+    assert np.isfinite(fitness)
+
+
+@pytest.mark.parametrize("key", REAL or [NO_REAL])
+def test_shipped_physics_descriptions_migrate_to_what_they_were_evaluated_with(key):
+    """The manifest's descriptions are format 1 (one flat scene, no "format"; contact shape
+    "engine", written before beam bonds, the native stepper and the network rule): they load
+    as the voxel pipeline with tendon bonds, ``mj_step`` and the stiffest-bond step, the
+    engine floor's constants and the self-collision radius, and round-trip as format 2."""
+    if key == NO_REAL:
+        assert MANIFEST["walker_3d.npz"]["placeholder"] is True
+        return
+    old = MANIFEST[key]["evaluation"]["physics"]
+    if "format" in old:  # re-shipped since: today's format, nothing to migrate
+        assert migrate_physics(old) == old
+        return
+    scene = old["scene"]
+    assert scene["contact_shape"] == "engine" and "bond_element" not in scene
+    physics = Physics.from_dict(old)
+    assert physics.scene == Scene(**{name: scene[name] for name in (
+        "voxel_size", "gravity", "frequency", "waveform", "settle_time", "measured_time",
+        "bond_damping_ratio", "drag_ratio", "floor", "timestep_safety")})
+    assert physics.pipeline == VoxelPipeline(
+        bond_element="tendons", bond_model=scene["bond_model"],
+        floor_stiffness=scene["contact_stiffness"], floor_damping=scene["contact_damping"],
+        collision_radius=scene["collision_radius"] if scene["self_collision"] else 0.0,
+        timestep_rule="stiffest_bond", stepper="mujoco")
+    migrated = migrate_physics(old)
+    assert migrated["format"] == 3 and migrated["pipeline"]["name"] == "voxel"
+    assert Physics.from_dict(migrated) == physics
+    assert Physics.from_dict(json.loads(json.dumps(physics.to_dict()))) == physics

@@ -1,4 +1,5 @@
-"""Beam bond elements (`Scene.bond_element` "beam", the default): one co-rotated beam per bond.
+"""Beam bond elements (`VoxelPipeline.bond_element` "beam", the default): one co-rotated beam
+per bond.
 
 Mechanics against theory (axial, cantilever, shear, muscle strain) run for both elements in
 test_physics_mechanics.py; here: the beam's linear stiffness and damping equal the tendon
@@ -15,10 +16,15 @@ import mujoco
 import numpy as np
 import pytest
 
-from mjregen.compile import compile_robot
 from mjregen.grid import Robot
-from mjregen.physics import Physics, PhysicsParameterError, Scene
-from mjregen.simulate import simulate, simulation_of
+from mjregen.physics import (
+    MujocoPipeline,
+    Physics,
+    PhysicsParameterError,
+    VoxelPipeline,
+)
+from mjregen.physics.compile import compile_robot
+from mjregen.physics.simulation import simulate, simulation_of
 
 ROBOTS = Path(__file__).resolve().parents[1] / "assets" / "robots"
 
@@ -32,8 +38,8 @@ def block_robot(dim: int) -> Robot:
 def passive_forces(robot: Robot, element: str, qpos: np.ndarray, qvel: np.ndarray,
                    time: float = 0.0) -> tuple[np.ndarray, mujoco.MjData]:
     """qfrc_passive of the bonds alone (no floor, gravity, drag or self-collision)."""
-    physics = Physics().replace_scene(bond_element=element, floor=False, gravity=0.0,
-                                      drag_ratio=0.0, self_collision=False, settle_time=0.0)
+    physics = Physics().replace(bond_element=element, floor=False, gravity=0.0,
+                                drag_ratio=0.0, collision_radius=0.0, settle_time=0.0)
     sim = simulation_of(compile_robot(robot, physics=physics))
     sim.data.qpos[:], sim.data.qvel[:], sim.data.time = qpos, qvel, time
     mujoco.mj_forward(sim.model, sim.data)
@@ -160,18 +166,34 @@ def test_mirror_symmetric_robot_stays_put_with_beams():
     """The beam is computed in the bond's mid frame, symmetric in its two voxels, so the
     mirror-symmetric in-phase robot does not move (1e-15 voxel lengths; tendons likewise)."""
     result = simulate(Robot.load(ROBOTS / "symmetric_inphase_3d.npy"),
-                      physics=Physics().replace_scene(bond_element="beam"))
+                      physics=Physics().replace(bond_element="beam"))
     assert result.stable and result.distance < 1e-6
 
 
-def test_beams_need_the_voxel_plugin_and_euler():
-    """Beams are the plugin's (contact_shape "engine"), which MuJoCo's Euler step integrates;
-    the pure-MuJoCo pipeline's bonds are tendons."""
+def test_beams_exist_in_the_voxel_pipeline_only_stepped_with_euler():
+    """Beams are the voxel plugin's, which MuJoCo's Euler step integrates (the voxel pipeline
+    has no integrator to choose); the pure-MuJoCo pipeline's bonds are always 8 tendons per
+    bond, with either integrator."""
     for shape in ("box", "sphere", "point"):
-        with pytest.raises(PhysicsParameterError, match="bond_element 'beam'"):
-            Scene(bond_element="beam", contact_shape=shape)
-        Scene(bond_element="tendons", contact_shape=shape, integrator="rk4")  # valid
-    with pytest.raises(PhysicsParameterError, match="integrator 'euler'"):
-        Scene(bond_element="beam", integrator="rk4")
+        with pytest.raises(PhysicsParameterError, match="bond_element: not a field"):
+            Physics().replace(pipeline="mujoco", contact_shape=shape, bond_element="beam")
+        with pytest.raises(PhysicsParameterError, match="bond_element: not a field"):
+            Physics().replace(pipeline="mujoco", contact_shape=shape, bond_element="tendons")
+        valid = Physics().replace(pipeline="mujoco", contact_shape=shape, integrator="rk4")
+        assert valid.pipeline == MujocoPipeline(contact_shape=shape, integrator="rk4")
+    with pytest.raises(TypeError):
+        MujocoPipeline(bond_element="beam")
+    with pytest.raises(PhysicsParameterError, match="integrator: not a field"):
+        Physics().replace(bond_element="beam", integrator="rk4")
+    with pytest.raises(TypeError):
+        VoxelPipeline(integrator="rk4")
     with pytest.raises(PhysicsParameterError, match="bond_element"):
-        Scene(bond_element="springs")
+        VoxelPipeline(bond_element="springs")
+    robot = block_robot(3)
+    for element in ("beam", "tendons"):
+        model = compile_robot(robot, physics=Physics().replace(bond_element=element)).model
+        assert model.opt.integrator == mujoco.mjtIntegrator.mjINT_EULER
+        assert model.nplugin == 1 and model.ntendon == 0
+    pure = compile_robot(robot, physics=Physics().replace(pipeline="mujoco", integrator="rk4"))
+    assert pure.model.opt.integrator == mujoco.mjtIntegrator.mjINT_RK4
+    assert pure.model.nplugin == 0 and pure.model.ntendon == 8 * pure.n_bonds

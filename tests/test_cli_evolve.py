@@ -13,6 +13,7 @@ import pytest
 
 from mjregen.cli import main
 
+
 # Tiny, fast runs: 2D, 6 individuals, short settle and walk.
 def tiny(seed: int = 1) -> list[str]:
     return ["--dim", "2", "--pop", "6", "--truncation", "3", "--elites", "1", "--settle", "0.02",

@@ -7,13 +7,23 @@ import mujoco
 import numpy as np
 import pytest
 
-from mjregen.compile import CompileError, compile_robot
+from mjregen.errors import CompileError
 from mjregen.grid import Material, Robot
 from mjregen.physics import MaterialProperties, Physics, PhysicsParameterError
-from mjregen.simulate import Simulation
+from mjregen.physics.compile import compile_robot
+from mjregen.physics.simulation import Simulation
 
 ROBOTS = Path(__file__).resolve().parents[1] / "assets" / "robots"
 L = 1e-3
+
+
+def mujoco_physics(**changes) -> Physics:
+    """The pure-MuJoCo pipeline as these tests built it from the old flat scene's defaults:
+    shear-rigid bonds, contact damping 0.8, self-collision spheres of 0.625 L, the network
+    time step (today's `MujocoPipeline` defaults differ)."""
+    return Physics().replace(**{"pipeline": "mujoco", "bond_model": "euler_bernoulli",
+                                "contact_damping": 0.8, "collision_radius": 0.625,
+                                "timestep_rule": "network", **changes})
 
 
 def config(compiled) -> dict:
@@ -29,7 +39,7 @@ def config(compiled) -> dict:
 
 def test_3d_structure_body_per_voxel_free_joint_8_tendons_per_bond():
     robot = Robot.from_body(np.ones((3, 2, 2), dtype=np.int8))  # 12 voxels, 20 bonds
-    compiled = compile_robot(robot, physics=Physics().replace_scene(self_collision=False))
+    compiled = compile_robot(robot, physics=Physics().replace(collision_radius=0.0))
     model = compiled.model
     assert compiled.pipeline == "voxel" and compiled.plugin_instance == 0
     assert compiled.n_bonds == 2 * 2 * 2 + 3 * 2 * 1 + 3 * 1 * 2 == 20
@@ -46,8 +56,8 @@ def test_3d_structure_body_per_voxel_free_joint_8_tendons_per_bond():
     assert [model.geom(model.body_geomadr[b]).name for b in compiled.body_ids] == names
     assert config(compiled)["voxels"].split() == names  # the plugin finds them by name
     # the pure-MuJoCo pipeline: the same bonds as MuJoCo tendons, contacts with the floor
-    pure = compile_robot(robot, physics=Physics().replace_scene(
-        self_collision=False, contact_shape="box", bond_element="tendons"))
+    pure = compile_robot(robot, physics=mujoco_physics(collision_radius=0.0,
+                                                       contact_shape="box"))
     assert pure.pipeline == "mujoco" and pure.plugin_instance is None
     assert pure.model.nplugin == 0 and pure.model.ntendon == 8 * 20
     assert pure.model.npair == 12  # voxel-floor pairs only
@@ -76,8 +86,7 @@ def test_voxel_pipeline_computes_floor_collision_and_drag_in_the_plugin():
     assert np.all(values["kinetic_friction"] == 0.5)
     # drag 2ζ sqrt(m E L) = 2·0.001·sqrt(1e-3 kg · 1e4 N/m) = 6.3246e-3 N s/m (c/m = 6.32/s)
     assert values["drag_linear"] == pytest.approx([6.3246e-3], rel=1e-5)
-    pure = compile_robot(robot, physics=Physics().replace_scene(contact_shape="point",
-                                                                 bond_element="tendons"))
+    pure = compile_robot(robot, physics=mujoco_physics(contact_shape="point"))
     exported = pure.model
     assert exported.npair == 27 and exported.opt.disableflags == 0
     assert (exported.geom_contype == 1).sum() == 26
@@ -109,8 +118,7 @@ def test_2d_structure_slide_slide_hinge_4_tendons_per_bond():
     assert compiled.n_bonds == 7 and compiled.bonds.count == 4 * 7
     assert [model.body(b).name for b in compiled.body_ids] == \
         [f"voxel_{x}_{z}" for x, z in compiled.voxel_index]
-    pure = compile_robot(robot, physics=Physics().replace_scene(contact_shape="box",
-                                                                 bond_element="tendons"))
+    pure = compile_robot(robot, physics=mujoco_physics(contact_shape="box"))
     assert pure.model.ntendon == 4 * 7
 
 
@@ -131,13 +139,12 @@ def test_bonds_start_unstressed():
     """At the lattice positions every tendon sits at its rest length (MuJoCo's tendons and
     the plugin's alike) and the beams exert no force: no drift."""
     robot = Robot.from_body(np.array([[[1, 2], [3, 4]], [[2, 1], [4, 3]]], dtype=np.int8))
-    pure = compile_robot(robot, physics=Physics().replace_scene(contact_shape="box",
-                                                                 bond_element="tendons"))
+    pure = compile_robot(robot, physics=mujoco_physics(contact_shape="box"))
     data = mujoco.MjData(pure.model)
     mujoco.mj_forward(pure.model, data)
     assert np.allclose(data.ten_length, pure.model.tendon_lengthspring[:, 0], rtol=1e-6)
     for element in ("tendons", "beam"):
-        compiled = compile_robot(robot, physics=Physics().replace_scene(
+        compiled = compile_robot(robot, physics=Physics().replace(
             bond_element=element, floor=False, drag_ratio=0.0))
         table, centres = compiled.bonds, compiled.model.body_pos[compiled.body_ids]
         sites = centres[table.ends] + table.offsets
@@ -150,7 +157,7 @@ def test_bonds_start_unstressed():
 
 
 def test_timestep_from_stiffest_bond_present():
-    limit = Physics().replace_scene(timestep_safety=1.0, timestep_rule="stiffest_bond")
+    limit = Physics().replace(timestep_safety=1.0, timestep_rule="stiffest_bond")
     soft, hard, lone = (compile_robot(Robot.from_body(body.astype(np.int8)), physics=limit)
                         for body in (np.ones((2, 1, 1)), np.full((2, 1, 1), 2), np.ones((1, 1, 1))))
     # Euler's limit for shear-rigid bonds at ζ 0.4 (tests/test_physics_params.py):
@@ -159,7 +166,7 @@ def test_timestep_from_stiffest_bond_present():
     assert hard.timestep == pytest.approx(soft.timestep / math.sqrt(5), rel=1e-4)
     assert lone.timestep == pytest.approx(soft.timestep, rel=1e-5)
     default = compile_robot(Robot.from_body(np.ones((2, 1, 1), dtype=np.int8)),
-                            physics=limit.replace_scene(timestep_safety=0.75))
+                            physics=limit.replace(timestep_safety=0.75))
     assert default.timestep == pytest.approx(0.75 * soft.timestep, rel=1e-5)
 
 
@@ -186,8 +193,7 @@ def test_default_timestep_is_075_of_the_networks_euler_limit():
 def test_muscle_tendons_come_first_and_cover_exactly_the_muscle_bonds():
     # soft-red-soft-soft bar: bonds 0-1 and 1-2 touch the muscle, 2-3 does not
     robot = Robot.from_body(np.array([[[1]], [[3]], [[1]], [[1]]], dtype=np.int8))
-    compiled = compile_robot(robot, physics=Physics().replace_scene(contact_shape="box",
-                                                                     bond_element="tendons"))
+    compiled = compile_robot(robot, physics=mujoco_physics(contact_shape="box"))
     assert compiled.muscles is not None and compiled.muscles.count == 2 * 8
     assert np.allclose(compiled.muscles.weights, [0.07, 0.0])  # half of 0.14, red phase
     assert compiled.model.ntendon == 3 * 8
@@ -220,10 +226,10 @@ def test_bad_input_raises_clear_errors():
 def test_exported_xml_reproduces_the_trajectory_bit_for_bit(name):
     # actuation from t = 0 so the muscles act within the short run
     compiled = compile_robot(Robot.load(ROBOTS / f"{name}.npy"),
-                             physics=Physics().replace_scene(settle_time=0.0))
+                             physics=Physics().replace(settle_time=0.0))
     plain = mujoco.MjModel.from_xml_string(compiled.to_xml())  # the plugin is loaded
     assert plain.nplugin == 1 and plain.opt.timestep == compiled.timestep
-    ours, exported = (Simulation(model, scene=compiled.physics.scene,
+    ours, exported = (Simulation(model, physics=compiled.physics,
                                  plugin_instance=compiled.plugin_instance)
                       for model in (compiled.model, plain))
     n = 1500
@@ -239,8 +245,7 @@ def test_point_contacts_and_collision_spheres_build_the_documented_geoms():
     radius other than L/2 gets its own sphere; the exported file runs the same, its muscle
     tendons' rest lengths rewritten every step."""
     robot = Robot.load(ROBOTS / "bimorph_walker_3d.npy")
-    physics = Physics().replace_scene(contact_shape="point", self_collision=True,
-                                      collision_radius=0.625, bond_element="tendons")
+    physics = mujoco_physics(contact_shape="point", collision_radius=0.625)
     compiled = compile_robot(robot, physics=physics)
     model = compiled.model
     plane = model.geom("floor_centres")
@@ -252,7 +257,7 @@ def test_point_contacts_and_collision_spheres_build_the_documented_geoms():
     assert collide.any() and np.allclose(model.geom_size[collide, 0], 0.625e-3)
     assert model.nu == 0 and model.nplugin == 0
     plain = mujoco.MjModel.from_xml_string(compiled.to_xml())
-    a, b = (Simulation(m, scene=physics.scene, muscles=compiled.muscles, actuation_start=0.0)
+    a, b = (Simulation(m, physics=physics, muscles=compiled.muscles, actuation_start=0.0)
             for m in (model, plain))
     assert a.run(500) == "" and b.run(500) == ""
     assert np.array_equal(a.data.qpos, b.data.qpos)

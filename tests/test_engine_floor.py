@@ -1,4 +1,4 @@
-"""The paper engine's floor (contact_shape "engine", the default) against closed-form physics.
+"""The paper engine's floor (the voxel pipeline's, the default) against closed-form physics.
 
 One voxel, L = 1 mm, m = 1 g, E = 1e7 Pa: floor spring k = 2·E·L = 2e4 N/m on the centre's
 penetration below the half size, static friction 1.0, kinetic 0.5. Drag off unless stated,
@@ -7,21 +7,21 @@ so the numbers are exact mechanics.
 
 import math
 
+import mujoco
 import numpy as np
 import pytest
 
-from mjregen import compile as compile_module
-from mjregen.compile import compile_robot
 from mjregen.grid import Robot
-from mjregen.physics import Physics, PhysicsParameterError, native
-from mjregen.simulate import simulation_of
+from mjregen.physics import Physics, PhysicsParameterError, VoxelPipeline, mjcf, native
+from mjregen.physics.compile import compile_robot
+from mjregen.physics.simulation import simulation_of
 
 pytestmark = pytest.mark.skipif(not native.available(),
                                 reason="the engine floor is computed by the voxel plugin")
 
 L, M, G = 1e-3, 1e-3, 27.468
 K_FLOOR = 2.0 * 1e7 * L
-NO_DRAG = Physics().replace_scene(drag_ratio=0.0, settle_time=0.0)
+NO_DRAG = Physics().replace(drag_ratio=0.0, settle_time=0.0)
 
 
 def voxel(code: int = 1, physics: Physics = NO_DRAG):
@@ -118,14 +118,32 @@ def test_contracting_muscle_voxel_sinks_with_its_half_size():
     assert late.max() == pytest.approx(L / 2 - M * G / K_FLOOR, rel=0.01)
 
 
-def test_engine_floor_needs_euler_and_a_penalty_stiffness():
-    with pytest.raises(PhysicsParameterError, match="contact_shape 'engine'"):
-        Physics().replace_scene(integrator="rk4")
-    with pytest.raises(PhysicsParameterError, match="contact_stiffness"):
-        Physics().replace_scene(contact_stiffness=None)
+@pytest.mark.parametrize("stiffness", [1.0, 4.0])
+def test_floor_stiffness_sets_the_static_penetration(stiffness):
+    """`floor_stiffness` is the spring in units of E·L: the centre rests m g / k lower."""
+    compiled, sim = voxel(physics=NO_DRAG.replace(floor_stiffness=stiffness))
+    run(sim, 0.05)
+    assert sim.data.qpos[2] == pytest.approx(L / 2 - M * G / (stiffness * 1e7 * L), abs=1e-9)
+
+
+def test_engine_floor_is_stepped_with_euler_and_needs_a_penalty_stiffness():
+    """The voxel pipeline has no integrator to choose (MuJoCo's Euler) and no MuJoCo
+    contact parameters: its floor is the engine's penalty spring."""
+    with pytest.raises(PhysicsParameterError, match="integrator: not a field of the scene "
+                                                    "or of the voxel pipeline"):
+        Physics().replace(integrator="rk4")
+    assert compile_robot(Robot.from_body(np.ones((1, 1, 1), np.int8))).model.opt.integrator \
+        == mujoco.mjtIntegrator.mjINT_EULER
+    with pytest.raises(PhysicsParameterError, match="floor_stiffness"):
+        Physics().replace(floor_stiffness=None)
+    with pytest.raises(PhysicsParameterError, match="floor_stiffness"):
+        VoxelPipeline(floor_stiffness=0.0)
+    for name in ("contact_stiffness", "contact_damping", "contact_shape"):
+        with pytest.raises(PhysicsParameterError, match=f"{name}: not a field"):
+            Physics().replace(**{name: 2.0})
     # MuJoCo's contact shapes take either integrator
-    assert Physics().replace_scene(integrator="rk4", contact_shape="point",
-                                   bond_element="tendons").scene.integrator == "rk4"
+    assert Physics().replace(pipeline="mujoco", integrator="rk4",
+                             contact_shape="point").pipeline.integrator == "rk4"
 
 
 def colliding_pair(speed: float):
@@ -133,7 +151,7 @@ def colliding_pair(speed: float):
     floor, no drag, flying at each other at ±`speed` m/s along x."""
     body = np.zeros((3, 1, 1), dtype=np.int8)
     body[0], body[2] = 1, 1
-    physics = Physics().replace_scene(floor=False, gravity=0.0, drag_ratio=0.0, settle_time=0.0)
+    physics = Physics().replace(floor=False, gravity=0.0, drag_ratio=0.0, settle_time=0.0)
     compiled = compile_robot(Robot.from_body(body), physics=physics)
     sim = simulation_of(compiled)
     left, right = np.argsort(compiled.voxel_index[:, 0])
@@ -166,7 +184,7 @@ def test_self_collision_candidate_list_never_changes_the_result(monkeypatch):
     step) and of 3 L (built once) give bit-identical motion."""
     states = []
     for skin in (0.01, 3.0):
-        monkeypatch.setattr(compile_module, "COLLISION_SKIN", skin)
+        monkeypatch.setattr(mjcf, "COLLISION_SKIN", skin)
         compiled, sim, *_ = colliding_pair(0.05)
         assert float(compiled.spec.plugins[0].config["collision_skin"]) == skin * L
         assert sim.run(round(0.03 / compiled.timestep)) == ""

@@ -12,7 +12,7 @@ from dm_env import test_utils
 from mjregen.env import RobotEnv
 from mjregen.grid import Material, Robot
 from mjregen.physics import Physics
-from mjregen.simulate import Simulation, simulate
+from mjregen.physics.simulation import Simulation, simulate
 
 P, M, S = Material.MUSCLE_PLUS, Material.MUSCLE_MINUS, Material.SOFT
 
@@ -46,7 +46,7 @@ def test_specs_describe_the_robot():
     for name, spec in env.observation_spec().items():
         spec.validate(observation[name])
     assert observation["voxel_positions"].shape == (robot.n_voxels, 3)
-    symmetric = RobotEnv(robot, physics=Physics().replace_scene(waveform="symmetric"))
+    symmetric = RobotEnv(robot, physics=Physics().replace(waveform="symmetric"))
     assert symmetric.action_spec().maximum == 1.0
 
 
@@ -57,7 +57,7 @@ def test_episode_with_the_paper_waveform_reproduces_simulate():
     env = RobotEnv(robot, duration=duration, control_timestep=1e-9)
     assert env.n_substeps == 1
     settle, _ = env.compiled.physics.scene.timing(3)
-    clock = Simulation(env.compiled.model, scene=env.compiled.physics.scene,
+    clock = Simulation(env.compiled.model, physics=env.compiled.physics,
                        muscles=None, actuation_start=settle)
     step = env.reset()
     start_steps = round(settle / env.compiled.timestep)

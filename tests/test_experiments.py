@@ -13,11 +13,12 @@ from mjregen import walkers as wk
 from mjregen.checkpoint import load_nca, save_nca
 from mjregen.cli import main as mjregen_main
 from mjregen.evolve import PRESETS
+from mjregen.fitness import locomotion_fitness
 from mjregen.grid import Robot
 from mjregen.nca import NCA, NCAConfig, grow
 from mjregen.physics import Physics
+from mjregen.physics.simulation import simulate
 from mjregen.runs import METRICS, RunFolderError
-from mjregen.simulate import simulate
 
 SCRIPTS = Path(__file__).resolve().parents[1] / "scripts"
 SMOKE = ex.SCALES["smoke"]
@@ -128,13 +129,14 @@ def results(tmp_path_factory) -> Path:
             "task": ex.task_config(config, physics, SMOKE.duration(3))}))
         rows = []
         for generation, i in enumerate(picks):
-            fitness = simulate(grids[i], physics=physics, duration=SMOKE.duration(3))
+            result = simulate(grids[i], physics=physics, duration=SMOKE.duration(3))
+            fitness = locomotion_fitness(result)
             stem = run / "best" / f"gen_{generation:04d}"
             save_nca(stem.with_suffix(".npz"), NCA(config, genomes[i]),
-                     metadata={"generation": generation, "fitness": fitness.fitness,
-                               "distance": fitness.distance + 1.0, "voxels": fitness.n_voxels})
+                     metadata={"generation": generation, "fitness": fitness,
+                               "distance": result.distance + 1.0, "voxels": result.n_voxels})
             Robot(grids[i]).save(stem.with_suffix(".npy"))
-            rows.append({k: 0 for k in METRICS} | {"generation": generation, "best": fitness.fitness})
+            rows.append({k: 0 for k in METRICS} | {"generation": generation, "best": fitness})
         with (run / "metrics.csv").open("w") as handle:
             handle.write(",".join(METRICS) + "\n")
             handle.writelines(",".join(str(r[k]) for k in METRICS) + "\n" for r in rows)
@@ -187,7 +189,7 @@ def test_ship_assets_matches_resimulation_and_never_overwrites(results, tmp_path
         assert robot == Robot.load(assets / "nca" / entry["robot_file"])
         result = simulate(robot, physics=Physics.from_dict(entry["evaluation"]["physics"]),
                           duration=entry["evaluation"]["duration_s"])
-        assert result.fitness == pytest.approx(entry["fitness"], rel=1e-6, abs=1e-9)
+        assert locomotion_fitness(result) == pytest.approx(entry["fitness"], rel=1e-6, abs=1e-9)
         assert entry["robot"]["voxels"] == robot.n_voxels
         assert entry["sha256"] == ship_assets.sha256(assets / "nca" / entry["file"])
     before = (assets / "nca" / "manifest.json").read_bytes()

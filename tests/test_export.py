@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 
 import mjregen
-from mjregen.compile import compile_robot
 from mjregen.grid import Material, Robot
 from mjregen.physics import Physics, legacy_physics, paper_physics, sphere_physics
-from mjregen.simulate import Simulation, simulate, simulation_of
+from mjregen.physics.compile import compile_robot
+from mjregen.physics.simulation import Simulation, simulate, simulation_of
 
 PAPER = "assets/robots/paper"
 SLAB = np.ones((4, 3, 2), dtype=np.int8)
@@ -28,7 +28,8 @@ SLAB[1, 1, 1] = 2
 PLAIN_MUJOCO = textwrap.dedent("""
     import json, sys
     import mujoco, numpy as np
-    library, xml, settle, measured = sys.argv[1], sys.argv[2], float(sys.argv[3]), float(sys.argv[4])
+    library, xml = sys.argv[1], sys.argv[2]
+    settle, measured = float(sys.argv[3]), float(sys.argv[4])
     mujoco.mj_loadPluginLibrary(library)
     model = mujoco.MjModel.from_xml_path(xml)
     data = mujoco.MjData(model)
@@ -68,7 +69,7 @@ def test_paper_robot_walks_the_same_distance_in_plain_mujoco(name, tmp_path):
     assert walked.distance > 20.0  # and it walked
 
 
-PRESETS = {"default": Physics(), "tendons": Physics().replace_scene(bond_element="tendons"),
+PRESETS = {"default": Physics(), "tendons": Physics().replace(bond_element="tendons"),
            "paper": paper_physics()}
 
 
@@ -76,7 +77,7 @@ PRESETS = {"default": Physics(), "tendons": Physics().replace_scene(bond_element
 @pytest.mark.parametrize("dim", [2, 3])
 def test_exported_model_steps_like_simulate(preset, dim, tmp_path):
     """mj_step on the file = `simulate`'s trajectory (its fast path) to 1e-9 m, muscles on."""
-    physics = PRESETS[preset].replace_scene(settle_time=0.004)
+    physics = PRESETS[preset].replace(settle_time=0.004)
     robot = Robot.from_body(SLAB if dim == 3 else SLAB[:, 1, :])
     compiled = compile_robot(robot, physics=physics)
     sim = simulation_of(compiled)
@@ -96,7 +97,7 @@ def test_exported_model_steps_like_simulate(preset, dim, tmp_path):
 def test_pure_mujoco_presets_export_their_model(physics, dim):
     """The pure-MuJoCo pipeline's file is its model (tendons, contacts; muscles are its
     first tendons, driven by Simulation): loading it gives the same trajectory."""
-    physics = physics.replace_scene(settle_time=0.002)
+    physics = physics.replace(settle_time=0.002)
     robot = Robot.from_body(SLAB if dim == 3 else SLAB[:, 1, :])
     compiled = compile_robot(robot, physics=physics)
     assert compiled.pipeline == "mujoco" and compiled.model.nplugin == 0
@@ -104,7 +105,7 @@ def test_pure_mujoco_presets_export_their_model(physics, dim):
     settle, _ = physics.scene.timing(dim)
     runs = []
     for model in (compiled.model, plain):
-        sim = Simulation(model, scene=physics.scene, muscles=compiled.muscles,
+        sim = Simulation(model, physics=physics, muscles=compiled.muscles,
                          actuation_start=settle)
         assert sim.run(600) == ""
         runs.append(sim.data.qpos.copy())
@@ -142,7 +143,7 @@ def test_exported_block_falls_on_the_parabola():
     """Before touching the floor (drag off), semi-implicit Euler's free fall
     z₀ − g h² n(n+1)/2 exactly (to rounding), which is the parabola to within g·h·t."""
     model = plain_model(Robot.from_body(np.ones((2, 2, 2), np.int8)),
-                        Physics().replace_scene(drag_ratio=0.0), elevation=5 * L)
+                        Physics().replace(drag_ratio=0.0), elevation=5 * L)
     data = mujoco.MjData(model)
     z0, h = com_z(model, data), model.opt.timestep
     n = round(0.01 / h)
@@ -175,7 +176,7 @@ def test_exported_hard_cantilever_sags_like_a_beam():
     0.8–1.25 (the sag oscillates about it: the first mode is lightly damped)."""
     grid = np.full((5, 1, 1), int(Material.HARD), np.int8)
     robot = Robot.from_body(grid)
-    physics = Physics().replace_scene(floor=False)
+    physics = Physics().replace(floor=False)
     model = plain_model(robot, physics, clamped=[(1, 1, 1)], elevation=0.01)
     data = mujoco.MjData(model)
     tip = model.body("voxel_5_1_1").id
@@ -189,3 +190,15 @@ def test_exported_hard_cantilever_sags_like_a_beam():
     x = np.arange(1, 5) * L
     theory = float(np.sum(1e-3 * G * x**2 * (3 * 4 * L - x) / (6 * 5e7 * L**4 / 12)))
     assert 0.8 * theory <= np.mean(sag) <= 1.25 * theory
+
+
+def test_exported_file_refuses_other_integrators_and_bad_configuration():
+    """The plugin's state and muscles advance per Euler step: an edited integrator is an
+    error naming the cause, and so is a configuration number that does not parse."""
+    xml = compile_robot(Robot.from_body(np.ones((2, 2, 2), np.int8))).to_xml()
+    with pytest.raises(ValueError, match="integrator must be Euler"):
+        mujoco.MjData(mujoco.MjModel.from_xml_string(
+            xml.replace("<option ", '<option integrator="RK4" ')))
+    with pytest.raises(ValueError, match="'bond_beta'"):
+        mujoco.MjData(mujoco.MjModel.from_xml_string(
+            xml.replace('key="bond_beta" value="', 'key="bond_beta" value="x')))

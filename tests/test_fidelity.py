@@ -12,7 +12,7 @@ from mjregen.reference import CASES, REFERENCE
 def test_paper_preset_is_the_default_and_round_trips():
     physics = paper_physics()
     assert Physics.from_dict(physics.to_dict()) == physics
-    assert physics.scene.contact_shape == "engine" and physics.scene.drag_ratio == 0.001
+    assert physics.pipeline.name == "voxel" and physics.scene.drag_ratio == 0.001
     assert physics == Physics()
     assert sphere_physics() != physics and legacy_physics() != physics
 

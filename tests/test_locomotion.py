@@ -5,13 +5,19 @@ import numpy as np
 import pytest
 
 import mjregen.locomotion as locomotion
+from mjregen.fitness import (
+    EMPTY_FITNESS,
+    UNSTABLE_FITNESS,
+    VOXEL_COST,
+    locomotion_fitness,
+)
 from mjregen.nca import NCAConfig, grow, random_genomes
 from mjregen.parallel import ProcessBackend, SerialBackend, ThreadBackend, make_backend
 from mjregen.physics import Physics
-from mjregen.simulate import EMPTY_FITNESS, UNSTABLE_FITNESS, VOXEL_COST, simulate
+from mjregen.physics.simulation import simulate
 
 NCA = NCAConfig(dim=2, kind="ff")
-QUICK = Physics().replace_scene(settle_time=0.01)
+QUICK = Physics().replace(settle_time=0.01)
 TASK = locomotion.LocomotionTask(nca=NCA, physics=QUICK, duration=0.02)
 
 
@@ -44,7 +50,8 @@ def test_each_distinct_robot_is_simulated_once_and_scored_like_simulate():
     assert backend.items == len(distinct_nonempty) and result.n_distinct == len({g.tobytes() for g in grids})
     assert np.array_equal(result.fitness[:3], result.fitness[6:])
     for i, grid in enumerate(grids):
-        expected = simulate(grid, physics=QUICK, duration=0.02).fitness if grid.any() else EMPTY_FITNESS[2]
+        expected = (locomotion_fitness(simulate(grid, physics=QUICK, duration=0.02))
+                    if grid.any() else EMPTY_FITNESS[2])
         assert result.fitness[i] == expected
 
 
@@ -68,7 +75,7 @@ def test_robots_seen_in_earlier_generations_come_from_the_cache_with_the_same_re
 
 def test_3d_fitness_subtracts_the_voxel_cost():
     nca3 = NCAConfig(dim=3, kind="ff")
-    task = locomotion.LocomotionTask(nca=nca3, physics=Physics().replace_scene(settle_time=0.005), duration=0.005)
+    task = locomotion.LocomotionTask(nca=nca3, physics=Physics().replace(settle_time=0.005), duration=0.005)
     genomes = random_genomes(nca3, 3, seed=1)
     result = task.evaluate(genomes, SerialBackend())
     for i in range(3):
@@ -91,7 +98,7 @@ def test_all_backends_give_identical_fitness():
 
 
 def test_a_diverging_simulation_is_penalised_not_raised():
-    unstable = locomotion.LocomotionTask(nca=NCA, physics=QUICK.replace_scene(timestep_safety=20.0), duration=0.02)
+    unstable = locomotion.LocomotionTask(nca=NCA, physics=QUICK.replace(timestep_safety=20.0), duration=0.02)
     result = unstable.evaluate(population(), SerialBackend())
     simulated = result.details["voxels"] > 0
     assert simulated.any()

@@ -1,26 +1,28 @@
-"""The bond network's fastest modes and the time step fitted to them (`mjregen.modes`)."""
+"""The bond network's fastest modes and the time step fitted to them
+(`mjregen.physics.timestep`)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from mjregen.compile import compile_robot
 from mjregen.grid import Material, Robot
-from mjregen.modes import (
+from mjregen.physics import MujocoPipeline, Physics, PhysicsParameterError, native
+from mjregen.physics.compile import compile_robot
+from mjregen.physics.simulation import simulation_of
+from mjregen.physics.timestep import (
     largest_eigenvalue,
     network_rates,
     stable_step,
+    stiffest_bond_step,
     strain_stiffening,
 )
-from mjregen.physics import Physics, native
-from mjregen.simulate import simulation_of
 
 pytestmark = pytest.mark.skipif(not native.available(),
                                 reason="no C compiler for the voxel plugin")
 
-NETWORK = Physics().replace_scene(timestep_rule="network")
-STIFFEST_BOND = Physics().replace_scene(timestep_rule="stiffest_bond")
+NETWORK = Physics().replace(timestep_rule="network")
+STIFFEST_BOND = Physics().replace(timestep_rule="stiffest_bond")
 
 
 def _rates(robot: Robot, physics: Physics) -> tuple[float, float]:
@@ -37,7 +39,7 @@ def test_two_voxels_fastest_mode_is_the_beam_theory_one(bond_model, element):
     ω² = 5 k_s/m, the axial mode 2 E L/m, torsion 4 G L/m (k_t = G L³/3), antisymmetric
     bending E L/m. Shear-rigid bonds (k_s = E L): 5 E L/m is the fastest; Timoshenko
     (k_s = G L, G = E/2(1+ν) = 0.37 E): the axial 2 E L/m is."""
-    physics = NETWORK.replace_scene(bond_model=bond_model, bond_element=element, floor=False)
+    physics = NETWORK.replace(bond_model=bond_model, bond_element=element, floor=False)
     hard = physics.materials[Material.HARD]
     robot = Robot.from_body(np.full((2, 1, 1), Material.HARD, np.int8))
     k_over_m = hard.youngs_modulus * physics.scene.voxel_size / physics.voxel_mass(Material.HARD)
@@ -71,7 +73,7 @@ def test_network_step_is_where_a_kicked_block_diverges():
     robot = Robot.from_body(np.full((3, 3, 3), Material.HARD, np.int8))
     outcomes = {}
     for safety in (0.95, 1.05):
-        physics = NETWORK.replace_scene(timestep_safety=safety, floor=False, gravity=0.0)
+        physics = NETWORK.replace(timestep_safety=safety, floor=False, gravity=0.0)
         sim = simulation_of(compile_robot(robot, physics=physics))
         sim.data.qvel[:] = np.random.default_rng(0).normal(0.0, 0.01, sim.model.nv)  # m/s, rad/s
         outcomes[safety] = sim.run(3000) == ""
@@ -87,7 +89,7 @@ def test_lengthening_muscles_stiffen_their_bonds_contracting_ones_do_not():
     assert beams.axial_law[0, 2] == pytest.approx(2e-6)  # m², D² = 2 L²
     physics = Physics()
     plus = physics.materials[Material.MUSCLE_PLUS]
-    symmetric = physics.replace_scene(waveform="symmetric")
+    symmetric = physics.replace(waveform="symmetric")
     assert strain_stiffening(beams, physics.scene) == 1.0  # contract-only: shorter, softer
     extension = 1.0 + plus.strain_amplitude  # both voxels lengthen the bond
     axial = extension ** 2 * 3.0 / (extension ** 2 + 2.0)
@@ -96,12 +98,13 @@ def test_lengthening_muscles_stiffen_their_bonds_contracting_ones_do_not():
                                                                       rel=1e-12)
 
 
-def test_network_rule_is_the_default():
-    assert Physics().scene.timestep_rule == "network"
+def test_network_rule_is_the_voxel_pipelines_default():
+    assert Physics().pipeline.timestep_rule == "network"
+    assert MujocoPipeline().timestep_rule == "stiffest_bond"  # needs no C compiler
     old = Physics().to_dict()
-    old.pop("format", None)  # written before the rule existed (and description formats)
-    del old["scene"]["timestep_rule"]
-    assert Physics.from_dict(old).scene.timestep_rule == "stiffest_bond"
+    old = {"materials": old["materials"],  # format 1: written before the rule existed
+           "scene": {**old["scene"], "contact_shape": "engine", "bond_element": "beam"}}
+    assert Physics.from_dict(old).pipeline.timestep_rule == "stiffest_bond"
 
 
 def test_network_rule_fits_the_step_to_the_robot():
@@ -116,12 +119,15 @@ def test_network_rule_fits_the_step_to_the_robot():
              for name, robot in (("block", block), ("biped", biped))}
     assert 0.95 < ratio["block"] < 1.15
     assert ratio["biped"] > 1.6
-    plugin = NETWORK.replace_scene(bond_element="tendons", floor=False)
-    pure = plugin.replace_scene(contact_shape="point")
-    assert compile_robot(biped, physics=pure).timestep == \
-        compile_robot(biped, physics=plugin).timestep
+    plugin = NETWORK.replace(bond_element="tendons", floor=False)
+    for bond_model in ("euler_bernoulli", "timoshenko"):
+        for floor in (False, True):  # MuJoCo's contacts are not in the network
+            pure = plugin.replace(pipeline="mujoco", contact_shape="point", floor=floor,
+                                  bond_model=bond_model, timestep_rule="network")
+            assert compile_robot(biped, physics=pure).timestep == compile_robot(
+                biped, physics=plugin.replace(bond_model=bond_model)).timestep
     # the engine floor's springs and dampers join the voxel pipeline's network: shorter
-    assert compile_robot(biped, physics=plugin.replace_scene(floor=True)).timestep < \
+    assert compile_robot(biped, physics=plugin.replace(floor=True)).timestep < \
         compile_robot(biped, physics=plugin).timestep
 
 
@@ -134,12 +140,15 @@ def test_without_a_compiler_the_network_rule_says_so_and_the_mujoco_presets_stil
     monkeypatch.setattr(native, "library_path", lambda: tmp_path / "missing.so")
     monkeypatch.setattr(native, "_compiler", lambda: None)
     robot = Robot.from_body(np.full((2, 2, 2), Material.SOFT, np.int8))
-    for physics in (NETWORK, NETWORK.replace_scene(bond_element="tendons",
-                                                   contact_shape="point")):
-        with pytest.raises(NativeBuildError, match="C compiler"):
-            compile_robot(robot, physics=physics)
+    with pytest.raises(NativeBuildError, match="C compiler"):
+        compile_robot(robot, physics=NETWORK)  # the voxel pipeline needs the plugin
+    # the pure-MuJoCo pipeline's network step would need the plugin's forces
+    with pytest.raises(PhysicsParameterError, match="C compiler.*timestep_rule 'stiffest_bond'"):
+        compile_robot(robot, physics=NETWORK.replace(pipeline="mujoco", contact_shape="point",
+                                                     timestep_rule="network"))
     physics = sphere_physics()  # MuJoCo tendons and contacts, the stiffest-bond step
+    assert physics.pipeline.timestep_rule == "stiffest_bond"
     compiled = compile_robot(robot, physics=physics)
     assert compiled.timestep == pytest.approx(
-        physics.timestep(1e7 * 1e-3 / physics.voxel_mass(Material.SOFT)), rel=1e-5)
+        stiffest_bond_step(physics, 1e7 * 1e-3 / physics.voxel_mass(Material.SOFT)), rel=1e-5)
     assert simulation_of(compiled).run(100) == ""

@@ -9,10 +9,10 @@ import mujoco
 import numpy as np
 import pytest
 
-from mjregen.compile import compile_robot
 from mjregen.grid import Robot
 from mjregen.physics import Physics, PhysicsParameterError, native
-from mjregen.simulate import simulation_of
+from mjregen.physics.compile import compile_robot
+from mjregen.physics.simulation import simulation_of
 
 pytestmark = pytest.mark.skipif(not native.available(),
                                 reason="no C compiler for the voxel plugin")
@@ -23,16 +23,26 @@ SLAB[1, 1, 1] = 2
 # what both pipelines compute alike: tendon bonds, muscles and drag (the plugin's drag is
 # MuJoCo's viscosity on the voxel's box); the engine floor and the plugin's self-collision
 # have no MuJoCo twin (tests/test_engine_floor.py)
-TENDONS = Physics().replace_scene(bond_element="tendons", floor=False, self_collision=False)
+TENDONS = Physics().replace(bond_element="tendons", floor=False, collision_radius=0.0)
+
+
+def mujoco_twin(physics: Physics, shape: str = "point") -> Physics:
+    """The pure-MuJoCo pipeline with the voxel pipeline's bond model, self-collision radius
+    and time-step rule (and its floor's spring and damper as the contacts')."""
+    voxel = physics.pipeline
+    return physics.replace(pipeline="mujoco", contact_shape=shape, bond_model=voxel.bond_model,
+                           contact_stiffness=voxel.floor_stiffness,
+                           contact_damping=voxel.floor_damping,
+                           collision_radius=voxel.collision_radius,
+                           timestep_rule=voxel.timestep_rule)
 
 
 def _both(robot, physics, steps, clamped=(), elevation=0.0):
     """(qpos, qvel, largest bond strain) after `steps` steps with each pipeline: the
-    voxel plugin (contact_shape "engine") and MuJoCo's tendons (contact_shape "point")."""
+    voxel plugin (`physics`) and MuJoCo's tendons (its `mujoco_twin`)."""
     out, steps_of = {}, set()
-    for pipeline, shape in (("voxel", "engine"), ("mujoco", "point")):
-        compiled = compile_robot(robot, physics=physics.replace_scene(contact_shape=shape),
-                                 clamped=clamped, elevation=elevation)
+    for pipeline, twin in (("voxel", physics), ("mujoco", mujoco_twin(physics))):
+        compiled = compile_robot(robot, physics=twin, clamped=clamped, elevation=elevation)
         assert compiled.pipeline == pipeline
         sim = simulation_of(compiled)
         assert (sim.stepper is not None) == (pipeline == "voxel")
@@ -49,12 +59,12 @@ def _both(robot, physics, steps, clamped=(), elevation=0.0):
 
 @pytest.mark.parametrize("physics", [
     TENDONS,
-    TENDONS.replace_scene(waveform="symmetric", bond_model="timoshenko"),
+    TENDONS.replace(waveform="symmetric", bond_model="timoshenko"),
 ], ids=["default", "symmetric"])
 @pytest.mark.parametrize("grid", [SLAB, SLAB[:, 1, :]], ids=["3d", "2d"])
 def test_driven_robot_same_motion(grid, physics):
     """Settle 5 ms, then 1500 steps in all with muscles driven (~30 ms in 3D), falling."""
-    physics = physics.replace_scene(settle_time=0.005)
+    physics = physics.replace(settle_time=0.005)
     out = _both(Robot.from_body(grid), physics, 1500)
     (q_v, v_v, strain), (q_m, v_m, _) = out["voxel"], out["mujoco"]
     assert strain > 1e-3  # the muscles work (a free fall alone strains nothing)
@@ -80,7 +90,7 @@ def test_both_pipelines_hold_the_same_bond_tendons():
     8 per 3D bond; the plugin's model has no tendons or sites of its own."""
     robot = Robot.from_body(SLAB)
     voxel = compile_robot(robot, physics=TENDONS)
-    mujoco_pipeline = compile_robot(robot, physics=TENDONS.replace_scene(contact_shape="point"))
+    mujoco_pipeline = compile_robot(robot, physics=mujoco_twin(TENDONS))
     assert voxel.model.nplugin == 1 and voxel.model.ntendon == voxel.model.nsite == 0
     table = voxel.bonds
     assert table.count == 8 * voxel.n_bonds and np.all(np.bincount(table.bond) == 8)
@@ -136,11 +146,14 @@ def test_threads_give_the_serial_result():
         assert np.array_equal(sim.data.qpos, serial.data.qpos)
 
 
-def test_engine_needs_euler_mujoco_contacts_take_rk4():
-    with pytest.raises(PhysicsParameterError, match="euler"):
-        Physics().replace_scene(integrator="rk4")
-    compiled = compile_robot(Robot.from_body(SLAB), physics=Physics().replace_scene(
-        integrator="rk4", contact_shape="point", bond_element="tendons"))
+def test_engine_is_stepped_with_euler_mujoco_contacts_take_rk4():
+    with pytest.raises(PhysicsParameterError, match="integrator: not a field of the scene or "
+                                                    "of the voxel pipeline"):
+        Physics().replace(integrator="rk4")
+    assert compile_robot(Robot.from_body(SLAB)).model.opt.integrator == \
+        mujoco.mjtIntegrator.mjINT_EULER
+    compiled = compile_robot(Robot.from_body(SLAB), physics=Physics().replace(
+        pipeline="mujoco", integrator="rk4", contact_shape="point"))
     assert compiled.pipeline == "mujoco" and compiled.plugin_instance is None
     assert compiled.model.opt.integrator == mujoco.mjtIntegrator.mjINT_RK4
 
@@ -149,7 +162,7 @@ def test_skipping_mujocos_contact_stages_changes_nothing():
     """The voxel model disables MuJoCo's collision and constraint stages (everything that
     touches is the plugin's): stepping with them enabled gives bit-identical states."""
     compiled = compile_robot(Robot.load("assets/robots/paper/tripod.npy"),
-                             physics=Physics().replace_scene(stepper="mujoco"))
+                             physics=Physics().replace(stepper="mujoco"))
     skipped = mujoco.mjtDisableBit.mjDSBL_CONTACT | mujoco.mjtDisableBit.mjDSBL_CONSTRAINT
     assert compiled.model.opt.disableflags & skipped == skipped
     fast = simulation_of(compiled)

@@ -9,10 +9,10 @@ import mujoco
 import numpy as np
 import pytest
 
-from mjregen.compile import compile_robot
 from mjregen.grid import Material, Robot
 from mjregen.physics import Physics
-from mjregen.simulate import Simulation, simulation_of
+from mjregen.physics.compile import compile_robot
+from mjregen.physics.simulation import Simulation, simulation_of
 
 L, M, G = 1e-3, 1e-3, 27.468
 
@@ -44,7 +44,7 @@ def test_free_fall_follows_parabola_until_contact(dim):
     Tolerance: semi-implicit Euler gives z_n = z0 − g dt² n(n+1)/2, i.e. an error of exactly
     g·dt·t/2 (≤ 12 µm here); we allow that bound plus 1 nm. Drag off (see the next test).
     """
-    t, com, dt = dropped_voxel(Physics().replace_scene(drag_ratio=0.0), 0.025, dim)
+    t, com, dt = dropped_voxel(Physics().replace(drag_ratio=0.0), 0.025, dim)
     z0 = 5e-3 + L / 2
     exact = z0 - G * t**2 / 2
     falling = exact > L / 2
@@ -60,7 +60,7 @@ def test_free_fall_with_drag_follows_the_linear_drag_solution():
     """The engine's "slow" drag F = −2ζ sqrt(m E L)·v: z(t) = z0 − (g/k)(t − (1 − e^{−kt})/k)
     with k = 2ζ sqrt(E L/m) = 6.32 s⁻¹ for ζ = 0.001 (0.15 mm less fall than without drag
     after 17.5 ms, the engine's figure). Tolerance: the Euler bound of the previous test."""
-    t, com, dt = dropped_voxel(Physics().replace_scene(drag_ratio=0.001), 0.0175)
+    t, com, dt = dropped_voxel(Physics().replace(drag_ratio=0.001), 0.0175)
     k = 2 * 0.001 * math.sqrt(1e7 * L / M)
     z0 = 5e-3 + L / 2
     exact = z0 - G / k * (t - (1 - np.exp(-k * t)) / k)
@@ -81,7 +81,7 @@ def test_block_rests_on_floor_for_two_seconds(body):
     compiled = compile_robot(Robot.from_body(body.astype(np.int8)))
     model = compiled.model
     model.opt.enableflags |= mujoco.mjtEnableBit.mjENBL_ENERGY
-    sim = Simulation(model, scene=compiled.physics.scene, muscles=None, actuation_start=0.0)
+    sim = Simulation(model, physics=compiled.physics, muscles=None, actuation_start=0.0)
     mujoco.mj_forward(model, sim.data)
     energy0 = sim.data.energy.sum()
     start = sim.com()
@@ -111,7 +111,7 @@ def test_hanging_column_stretches_as_E_predicts(dim, material, E, element):
     """
     n = 5
     robot = bar(n, material, dim=dim, axis=dim - 1)
-    physics = Physics().replace_scene(floor=False, bond_element=element)
+    physics = Physics().replace(floor=False, bond_element=element)
     compiled = compile_robot(robot, physics=physics, clamped=[(1,) * (dim - 1) + (n,)])
     sim = simulation_of(compiled)
     bottom = compiled.body_ids[np.argmin(compiled.voxel_index[:, -1])]
@@ -131,7 +131,7 @@ def cantilever_sag(n: int, material: int, *, dim: int, gravity: float, settle: f
 
     Averaged over the last 20 ms of `settle` s.
     """
-    physics = Physics().replace_scene(floor=False, gravity=gravity, bond_model=bond_model,
+    physics = Physics().replace(floor=False, gravity=gravity, bond_model=bond_model,
                                       bond_element=bond_element)
     compiled = compile_robot(bar(n, material, dim=dim, axis=0), physics=physics,
                              clamped=[(1,) * dim])
@@ -233,7 +233,7 @@ def muscle_pair(codes: tuple[int, int], *, waveform: str = "contract",
                 bond_element: str = "beam") -> tuple[np.ndarray, np.ndarray]:
     """(t, centre distance) of a free two-voxel bar, no floor or gravity, actuated from t=0;
     bond damping ratio 1 (overdamped: a clean first-order lag)."""
-    physics = Physics().replace_scene(floor=False, gravity=0.0, settle_time=0.0,
+    physics = Physics().replace(floor=False, gravity=0.0, settle_time=0.0,
                                       waveform=waveform, bond_damping_ratio=1.0,
                                       bond_element=bond_element)
     compiled = compile_robot(Robot.from_body(np.array(codes, dtype=np.int8).reshape(2, 1, 1)),
@@ -289,12 +289,13 @@ def test_symmetric_waveform_also_extends():
 
 @pytest.mark.parametrize("shape, spin", [("point", (0.0, 0.1)), ("sphere", (5.0, math.inf))])
 def test_point_contacts_rest_like_the_engine_and_exert_no_moment(shape, spin):
-    """contact_shape "point": a voxel rests with its centre at L/2 whatever its orientation
+    """`MujocoPipeline.contact_shape` "point": a voxel rests with its centre at L/2 whatever its orientation
     (the engine: 0.49863 mm; MuJoCo's contact impedance leaves ~nm penetration at rest), and
     a kicked voxel slides without starting to roll."""
-    physics = Physics().replace_scene(contact_shape=shape, contact_stiffness=2.0,
-                                      contact_damping=1.2, settle_time=0.0,
-                                      self_collision=False, bond_element="tendons")
+    # the pure-MuJoCo pipeline; shear-rigid bonds (the old default) set the lone voxel's step
+    physics = Physics().replace(pipeline="mujoco", contact_shape=shape, contact_stiffness=2.0,
+                                contact_damping=1.2, settle_time=0.0, collision_radius=0.0,
+                                bond_model="euler_bernoulli", timestep_rule="network")
     robot = Robot.from_body(np.ones((1, 1, 1), dtype=np.int8))
     compiled = compile_robot(robot, physics=physics)
     sim = simulation_of(compiled)

@@ -1,11 +1,23 @@
-"""Physics parameters: the paper's defaults, the time-step rule, and clear errors."""
+"""Physics parameters: the paper's defaults, the time-step rule, the two pipelines, old
+descriptions, and clear errors."""
 
 import math
 
 import pytest
 
 from mjregen.grid import Material
-from mjregen.physics import MaterialProperties, Physics, PhysicsParameterError, Scene
+from mjregen.physics import (
+    PHYSICS_FORMAT,
+    MaterialProperties,
+    MujocoPipeline,
+    Physics,
+    PhysicsParameterError,
+    Scene,
+    VoxelPipeline,
+    migrate_physics,
+    paper_physics,
+)
+from mjregen.physics.timestep import stiffest_bond_step
 
 
 def test_defaults_are_the_papers():
@@ -22,24 +34,40 @@ def test_defaults_are_the_papers():
     assert (scene.gravity, scene.frequency, scene.waveform) == (27.468, 40.0, "contract")
     assert scene.timing(3) == (0.05, 0.5) and scene.timing(2) == (1.0, 0.25)
     assert soft.shear_modulus == pytest.approx(1e7 / 2.7)
+    # the voxel plugin with the engine's floor, shear-rigid beams, self-collision
+    assert physics.pipeline == VoxelPipeline() and physics.pipeline.name == "voxel"
+    voxel = physics.pipeline
+    assert (voxel.bond_element, voxel.bond_model) == ("beam", "euler_bernoulli")
+    assert (voxel.floor_stiffness, voxel.floor_damping, voxel.collision_radius) == (2.0, 0.8, 0.625)
+    assert (voxel.timestep_rule, voxel.stepper) == ("network", "auto")
+    assert physics == paper_physics()
+    mujoco = MujocoPipeline()
+    assert (mujoco.name, mujoco.contact_shape, mujoco.bond_model) == ("mujoco", "sphere", "timoshenko")
+    assert (mujoco.contact_stiffness, mujoco.contact_damping, mujoco.collision_radius) == (2.0, 1.2, 0.0)
+    assert (mujoco.integrator, mujoco.timestep_rule) == ("euler", "stiffest_bond")
 
 
 def test_timestep_rule_is_the_euler_limit_of_the_damped_bond_network():
     """dt = safety · 2 (sqrt(1 + (ζr)²) − ζr) / (r sqrt(k/m)), r = 2.7 (Timoshenko) or
     2.7 sqrt(2.7) (shear-rigid, ν = 0.35); numbers worked by hand."""
     k_soft = 1e7 * 1e-3 / 1e-3
-    undamped = Physics(scene=Scene(timestep_safety=1.0, bond_damping_ratio=0.0,
-                                   bond_model="timoshenko"))
-    assert undamped.timestep(k_soft) == pytest.approx(2 / 2.7 / math.sqrt(k_soft), rel=1e-12)
-    timoshenko = undamped.replace_scene(bond_damping_ratio=1.0)
+    step = stiffest_bond_step
+    undamped = Physics(scene=Scene(timestep_safety=1.0, bond_damping_ratio=0.0),
+                       pipeline=VoxelPipeline(bond_model="timoshenko"))
+    assert step(undamped, k_soft) == pytest.approx(2 / 2.7 / math.sqrt(k_soft), rel=1e-12)
+    timoshenko = undamped.replace(bond_damping_ratio=1.0)
     # ζr = 2.7: 2 (sqrt(8.29) − 2.7) / 2.7 = 2 (2.879236 − 2.7) / 2.7 = 0.132768
-    assert timoshenko.timestep(k_soft) == pytest.approx(0.132768 / math.sqrt(k_soft), rel=1e-5)
+    assert step(timoshenko, k_soft) == pytest.approx(0.132768 / math.sqrt(k_soft), rel=1e-5)
+    # the rule depends on the bond model, not on the pipeline
+    assert step(timoshenko.replace(pipeline="mujoco"), k_soft) == step(timoshenko, k_soft)
     default = Physics()  # shear-rigid, ζ 0.4, safety 0.75: r = 4.4365, ζr = 1.7746
-    assert default.timestep(k_soft) == pytest.approx(0.75 * 0.118271 / math.sqrt(k_soft),
-                                                     rel=1e-4)
-    assert default.timestep(5 * k_soft) == pytest.approx(default.timestep(k_soft) / math.sqrt(5))
-    half = default.replace_scene(timestep_safety=0.375)
-    assert half.timestep(1e7) == pytest.approx(0.5 * default.timestep(1e7), rel=1e-12)
+    assert step(default, k_soft) == pytest.approx(0.75 * 0.118271 / math.sqrt(k_soft),
+                                                  rel=1e-4)
+    assert step(default, 5 * k_soft) == pytest.approx(step(default, k_soft) / math.sqrt(5))
+    half = default.replace(timestep_safety=0.375)
+    assert step(half, 1e7) == pytest.approx(0.5 * step(default, 1e7), rel=1e-12)
+    with pytest.raises(ValueError, match="stiffness_per_mass"):
+        step(default, 0.0)
 
 
 @pytest.mark.parametrize("kwargs, word", [
@@ -69,21 +97,109 @@ def test_bad_material_raises_naming_the_parameter(kwargs, word):
     (dict(timestep_safety=0.0), "timestep_safety"),
     (dict(timestep_safety=math.nan), "finite"),
     (dict(waveform="square"), "waveform"),
-    (dict(integrator="implicitfast"), "integrator"),
-    (dict(contact_timeconst=0.0), "contact_timeconst"),
     (dict(floor=1), "floor"),
-    (dict(contact_shape="capsule"), "contact_shape"),
-    (dict(collision_radius=0.75), "collision_radius"),
-    # the voxel plugin (contact_shape "engine") is stepped with Euler and has a penalty floor
-    (dict(integrator="rk4"), "integrator 'euler'"),
-    (dict(contact_stiffness=None), "contact_stiffness"),
-    # beams and the native stepper exist in the voxel pipeline only
-    (dict(contact_shape="box"), "bond_element 'beam'"),
-    (dict(contact_shape="point", bond_element="tendons", stepper="native"), "stepper 'native'"),
+    (dict(bond_damping_ratio=-0.1), "bond_damping_ratio"),
+    (dict(drag_ratio=-0.1), "drag_ratio"),
 ])
 def test_bad_scene_raises_naming_the_parameter(kwargs, word):
     with pytest.raises(PhysicsParameterError, match=word):
         Scene(**kwargs)
+
+
+@pytest.mark.parametrize("kwargs, word", [
+    (dict(bond_element="springs"), "bond_element"),
+    (dict(bond_model="rigid"), "bond_model"),
+    (dict(floor_stiffness=0.0), "floor_stiffness"),
+    # the engine floor is a penalty spring (the paper's: 2.0 E·L)
+    (dict(floor_stiffness=None), "floor_stiffness must be a number"),
+    (dict(floor_damping=-0.1), "floor_damping"),
+    (dict(collision_radius=0.75), "collision_radius"),
+    (dict(collision_radius=-0.1), "collision_radius"),
+    (dict(timestep_rule="fastest"), "timestep_rule"),
+    (dict(stepper="fast"), "stepper must be one of"),
+])
+def test_bad_voxel_pipeline_raises_naming_the_parameter(kwargs, word):
+    with pytest.raises(PhysicsParameterError, match=word):
+        VoxelPipeline(**kwargs)
+
+
+@pytest.mark.parametrize("kwargs, word", [
+    (dict(integrator="implicitfast"), "integrator"),
+    (dict(contact_timeconst=0.0), "contact_timeconst"),
+    (dict(contact_dampratio=0.0), "contact_dampratio"),
+    (dict(contact_width=0.0), "contact_width"),
+    (dict(contact_shape="capsule"), "contact_shape"),
+    (dict(contact_shape="engine"), "contact_shape"),  # the engine floor: the voxel pipeline
+    (dict(contact_stiffness=0.0), "contact_stiffness"),
+    (dict(contact_damping=-1.0), "contact_damping"),
+    (dict(collision_radius=0.75), "collision_radius"),
+    (dict(bond_model="rigid"), "bond_model"),
+    (dict(timestep_rule="fastest"), "timestep_rule"),
+])
+def test_bad_mujoco_pipeline_raises_naming_the_parameter(kwargs, word):
+    with pytest.raises(PhysicsParameterError, match=word):
+        MujocoPipeline(**kwargs)
+
+
+@pytest.mark.parametrize("pipeline, changes", [
+    # the voxel plugin is stepped with Euler and has the engine floor, no contact shapes
+    ("voxel", dict(integrator="rk4")),
+    ("voxel", dict(contact_shape="point")),
+    ("voxel", dict(contact_stiffness=2.0)),
+    ("voxel", dict(self_collision=False)),  # format 1's switch: collision_radius 0 now
+    # the pure-MuJoCo pipeline's bonds are always 8 tendons, stepped by mj_step
+    ("mujoco", dict(bond_element="beam")),
+    ("mujoco", dict(stepper="native")),
+    ("mujoco", dict(floor_stiffness=2.0)),
+])
+def test_a_field_of_the_other_pipeline_is_refused(pipeline, changes):
+    (name,) = changes
+    with pytest.raises(PhysicsParameterError, match=f"{name}: not a field of the scene or of "
+                                                    f"the {pipeline} pipeline"):
+        Physics().replace(pipeline=pipeline, **changes)
+
+
+def test_replace_with_an_unknown_field_names_both_field_sets():
+    with pytest.raises(PhysicsParameterError) as voxel:
+        Physics().replace(gravity=0.0, colour="red", contact_shape="box")
+    message = str(voxel.value)
+    assert message.startswith("colour, contact_shape: not a field of the scene or of the voxel")
+    scene = "bond_damping_ratio, drag_ratio, floor, frequency, gravity, measured_time, " \
+            "settle_time, timestep_safety, voxel_size, waveform"
+    assert f"scene: {scene};" in message
+    assert "voxel: bond_element, bond_model, collision_radius, floor_damping, " \
+           "floor_stiffness, stepper, timestep_rule" in message
+    with pytest.raises(PhysicsParameterError) as mujoco:
+        Physics().replace(pipeline="mujoco", bond_element="beam")
+    message = str(mujoco.value)
+    assert message.startswith("bond_element: not a field of the scene or of the mujoco")
+    assert f"scene: {scene};" in message
+    assert "mujoco: bond_model, collision_radius, contact_damping, contact_dampratio, " \
+           "contact_shape, contact_stiffness, contact_timeconst, contact_width, integrator, " \
+           "timestep_rule" in message
+    with pytest.raises(PhysicsParameterError, match="pipeline must be one of"):
+        Physics().replace(pipeline="fluid")
+
+
+def test_replace_routes_fields_and_switches_pipelines():
+    physics = Physics().replace(gravity=0.0, floor_stiffness=4.0, collision_radius=0.0)
+    assert physics.scene == Scene(gravity=0.0)
+    assert physics.pipeline == VoxelPipeline(floor_stiffness=4.0, collision_radius=0.0)
+    # another pipeline starts from its own defaults; the scene is kept
+    switched = physics.replace(pipeline="mujoco", contact_shape="point")
+    assert switched.scene == physics.scene and switched.materials == physics.materials
+    assert switched.pipeline == MujocoPipeline(contact_shape="point")
+    # naming the current pipeline keeps its fields
+    kept = switched.replace(pipeline="mujoco", integrator="rk4")
+    assert kept.pipeline == MujocoPipeline(contact_shape="point", integrator="rk4")
+    assert kept.replace(pipeline="voxel").pipeline == VoxelPipeline()
+    # or a pipeline object, then changed
+    given = Physics().replace(pipeline=MujocoPipeline(contact_shape="box"), contact_damping=0.8)
+    assert given.pipeline == MujocoPipeline(contact_shape="box", contact_damping=0.8)
+    with pytest.raises(PhysicsParameterError, match="pipeline must be VoxelPipeline"):
+        Physics(pipeline="mujoco")
+    with pytest.raises(PhysicsParameterError, match="scene must be a Scene"):
+        Physics(scene=VoxelPipeline())
 
 
 def test_physics_needs_every_material_and_copies_changes():
@@ -91,49 +207,170 @@ def test_physics_needs_every_material_and_copies_changes():
     del materials[Material.HARD]
     with pytest.raises(PhysicsParameterError, match="HARD"):
         Physics(materials=materials)
-    changed = Physics().replace_scene(gravity=0.0)
+    changed = Physics().replace(gravity=0.0)
     assert changed.scene.gravity == 0.0 and Physics().scene.gravity == 27.468
     with pytest.raises(PhysicsParameterError, match="gravity"):
-        Physics().replace_scene(gravity=-1.0)
+        Physics().replace(gravity=-1.0)
 
 
 def test_physics_pickles_and_round_trips_through_json():
     import json
     import pickle
 
-    physics = Physics().replace_scene(settle_time=0.2, integrator="rk4",
-                                      contact_shape="sphere", bond_element="tendons")
-    assert pickle.loads(pickle.dumps(physics)) == physics  # sent to worker processes
-    assert Physics.from_dict(json.loads(json.dumps(physics.to_dict()))) == physics
+    for physics in (Physics().replace(settle_time=0.2, bond_element="tendons",
+                                      collision_radius=0.0, stepper="mujoco"),
+                    Physics().replace(pipeline="mujoco", settle_time=0.2, integrator="rk4",
+                                      contact_shape="box", contact_stiffness=None)):
+        assert pickle.loads(pickle.dumps(physics)) == physics  # sent to worker processes
+        values = physics.to_dict()
+        assert values["format"] == PHYSICS_FORMAT == 3
+        assert set(values) == {"format", "materials", "scene", "pipeline"}
+        assert values["pipeline"]["name"] == physics.pipeline.name
+        assert Physics.from_dict(json.loads(json.dumps(values))) == physics
+        assert migrate_physics(values) == values  # today's format: nothing to migrate
     assert Physics.from_dict(Physics().to_dict()) == Physics()  # beams survive the trip
-    # descriptions written before beam bonds existed (runs, manifests) meant tendon bonds
-    old = Physics().to_dict()
-    old.pop("format", None)  # ... and before description formats
-    del old["scene"]["bond_element"]
-    tendons = Physics.from_dict(old)
-    assert tendons.scene.bond_element == "tendons"
-    # ... and they may name how bonds were computed (now the pipeline's choice) or the
-    # strain-rate damping, which no longer exists: refused when it was on
-    old["scene"].update(bond_backend="native", damp_strain_rate=False)
-    assert Physics.from_dict(old) == tendons
-    old["scene"]["damp_strain_rate"] = True
-    with pytest.raises(PhysicsParameterError, match="damp_strain_rate"):
-        Physics.from_dict(old)
     broken = physics.to_dict()
     broken["materials"]["hard"]["youngs_modulus"] = -1.0
     with pytest.raises(PhysicsParameterError, match="youngs_modulus"):
         Physics.from_dict(broken)
+    for key in ("scene", "pipeline"):
+        broken = physics.to_dict()
+        del broken[key]
+        with pytest.raises(PhysicsParameterError, match="invalid physics"):
+            Physics.from_dict(broken)
     broken = physics.to_dict()
-    del broken["scene"]
+    broken["pipeline"]["name"] = "fluid"
     with pytest.raises(PhysicsParameterError, match="invalid physics"):
         Physics.from_dict(broken)
+    broken = physics.to_dict()
+    broken["pipeline"]["bond_element"] = "beam"  # not a field of the MuJoCo pipeline
+    with pytest.raises(PhysicsParameterError, match="invalid physics"):
+        Physics.from_dict(broken)
+    newer = physics.to_dict()
+    newer["format"] = PHYSICS_FORMAT + 1
+    with pytest.raises(PhysicsParameterError, match=f"format {PHYSICS_FORMAT + 1}"):
+        Physics.from_dict(newer)
+
+
+# format 1: one flat scene of every field (run folders and asset manifests written before
+# description formats, e.g. assets/nca/manifest.json), here with its old class defaults
+FORMAT_1_SCENE = {
+    "voxel_size": 1e-3, "gravity": 27.468, "frequency": 40.0, "waveform": "contract",
+    "settle_time": None, "measured_time": None, "bond_damping_ratio": 0.4,
+    "integrator": "euler", "timestep_safety": 0.75, "floor": True, "contact_timeconst": 3e-4,
+    "contact_dampratio": 1.0, "contact_width": 1e-5, "bond_model": "euler_bernoulli",
+    "drag_ratio": 0.001, "contact_shape": "engine", "contact_stiffness": 2.0,
+    "contact_damping": 0.8, "self_collision": True, "damp_strain_rate": False,
+    "collision_radius": 0.625, "bond_element": "beam", "stepper": "auto",
+    "timestep_rule": "network",
+}
+
+
+def format_1(**scene) -> dict:
+    materials = Physics().to_dict()["materials"]
+    return {"materials": materials, "scene": {**FORMAT_1_SCENE, **scene}}
+
+
+def test_format_1_engine_floor_migrates_to_the_voxel_pipeline():
+    """Contact shape "engine" was the voxel plugin's floor: its stiffness and damping are the
+    voxel pipeline's floor's, `self_collision` folds into the radius."""
+    migrated = migrate_physics(format_1())
+    assert migrated["format"] == PHYSICS_FORMAT and "format" not in format_1()
+    assert Physics.from_dict(format_1()) == Physics()  # the old defaults are today's
+    physics = Physics.from_dict(format_1(
+        settle_time=0.2, gravity=10.0, bond_damping_ratio=0.5, contact_stiffness=3.0,
+        contact_damping=0.7, self_collision=False, bond_element="tendons",
+        bond_model="timoshenko", stepper="native", timestep_rule="stiffest_bond",
+        contact_timeconst=1e-3, bond_backend="native"))
+    assert physics.scene == Scene(settle_time=0.2, gravity=10.0, bond_damping_ratio=0.5)
+    assert physics.pipeline == VoxelPipeline(
+        bond_element="tendons", bond_model="timoshenko", floor_stiffness=3.0,
+        floor_damping=0.7, collision_radius=0.0, stepper="native",
+        timestep_rule="stiffest_bond")
+    # a description from before beam bonds, the native stepper and the network rule: what
+    # it was evolved with (tendons, mj_step, the stiffest-bond step); other missing fields
+    # take the old class defaults
+    old = {"materials": format_1()["materials"], "scene": {"contact_shape": "engine"}}
+    assert Physics.from_dict(old) == Physics().replace(
+        bond_element="tendons", stepper="mujoco", timestep_rule="stiffest_bond")
+    # MuJoCo's Euler integrator only
+    with pytest.raises(PhysicsParameterError, match="Euler"):
+        Physics.from_dict(format_1(integrator="rk4"))
+
+
+def test_format_1_mujoco_contacts_migrate_to_the_mujoco_pipeline():
+    """Any other contact shape was the pure-MuJoCo model: the old defaults it relied on
+    (shear-rigid bonds, damping 0.8, self-collision 0.625) are written out."""
+    physics = Physics.from_dict(format_1(contact_shape="point", bond_element="tendons",
+                                         integrator="rk4"))
+    assert physics.scene == Scene()
+    assert physics.pipeline == MujocoPipeline(
+        contact_shape="point", bond_model="euler_bernoulli", contact_stiffness=2.0,
+        contact_damping=0.8, collision_radius=0.625, integrator="rk4",
+        timestep_rule="network")
+    physics = Physics.from_dict(format_1(
+        contact_shape="box", contact_stiffness=None, contact_timeconst=1e-3,
+        contact_dampratio=0.5, contact_width=2e-5, self_collision=False,
+        bond_element="tendons", bond_model="timoshenko", timestep_rule="stiffest_bond",
+        drag_ratio=0.0, bond_damping_ratio=1.0))
+    assert physics.scene == Scene(drag_ratio=0.0, bond_damping_ratio=1.0)
+    assert physics.pipeline == MujocoPipeline(
+        contact_shape="box", contact_stiffness=None, contact_damping=0.8,
+        contact_timeconst=1e-3, contact_dampratio=0.5, contact_width=2e-5,
+        collision_radius=0.0, timestep_rule="stiffest_bond")
+    # missing fields: the old class defaults, and the stiffest-bond step of the time
+    old = {"materials": format_1()["materials"], "scene": {"contact_shape": "sphere"}}
+    assert Physics.from_dict(old).pipeline == MujocoPipeline(
+        contact_shape="sphere", bond_model="euler_bernoulli", contact_damping=0.8,
+        collision_radius=0.625, timestep_rule="stiffest_bond")
+    # beam bonds were only ever the voxel plugin's
+    with pytest.raises(PhysicsParameterError, match="beam bonds with MuJoCo contacts"):
+        Physics.from_dict(format_1(contact_shape="sphere"))  # bond_element "beam"
+
+
+def test_format_1_settings_that_no_longer_exist_are_refused():
+    old = format_1(bond_element="tendons")
+    old["scene"].update(bond_backend="native", damp_strain_rate=False)
+    assert Physics.from_dict(old) == Physics.from_dict(format_1(bond_element="tendons"))
+    old["scene"]["damp_strain_rate"] = True
+    with pytest.raises(PhysicsParameterError, match="damp_strain_rate"):
+        Physics.from_dict(old)
+    with pytest.raises(PhysicsParameterError, match="unknown scene fields"):
+        Physics.from_dict(format_1(colour="red"))
+    with pytest.raises(PhysicsParameterError, match="invalid physics"):
+        migrate_physics({"materials": {}})
 
 
 def test_timestep_shrinks_with_heavy_bond_damping():
     """Heavy damping limits like 1/(ζ r²): doubling a large ζ about halves the step."""
     k_per_m = 5e7 * 1e-3 / 1e-3
-    zeta2 = Physics().replace_scene(bond_damping_ratio=2.0).timestep(k_per_m)
-    zeta4 = Physics().replace_scene(bond_damping_ratio=4.0).timestep(k_per_m)
+    zeta2 = stiffest_bond_step(Physics().replace(bond_damping_ratio=2.0), k_per_m)
+    zeta4 = stiffest_bond_step(Physics().replace(bond_damping_ratio=4.0), k_per_m)
     assert zeta4 / zeta2 == pytest.approx(0.5, rel=0.02)
-    assert Physics().replace_scene(bond_damping_ratio=0.1).timestep(k_per_m) > \
-        Physics().timestep(k_per_m)
+    assert stiffest_bond_step(Physics().replace(bond_damping_ratio=0.1), k_per_m) > \
+        stiffest_bond_step(Physics(), k_per_m)
+
+
+# Physics().to_dict() as format 2 wrote it (one flat scene, before the pipelines)
+FORMAT_2_DEFAULT_SCENE = {'voxel_size': 0.001, 'gravity': 27.468, 'frequency': 40.0, 'waveform': 'contract', 'settle_time': None, 'measured_time': None, 'bond_damping_ratio': 0.4, 'integrator': 'euler', 'timestep_safety': 0.75, 'floor': True, 'contact_timeconst': 0.0003, 'contact_dampratio': 1.0, 'contact_width': 1e-05, 'bond_model': 'euler_bernoulli', 'drag_ratio': 0.001, 'contact_shape': 'engine', 'contact_stiffness': 2.0, 'contact_damping': 0.8, 'self_collision': True, 'collision_radius': 0.625, 'bond_element': 'beam', 'stepper': 'auto', 'timestep_rule': 'network'}
+
+
+def test_format_2_flat_scene_migrates_to_the_same_physics():
+    described = Physics().to_dict()
+    described.update(format=2, scene=dict(FORMAT_2_DEFAULT_SCENE))
+    del described["pipeline"]
+    assert Physics.from_dict(described) == Physics()
+    described["scene"]["contact_shape"] = "sphere"
+    described["scene"]["bond_element"] = "tendons"
+    migrated = Physics.from_dict(described)
+    assert migrated.pipeline.name == "mujoco" and migrated.pipeline.contact_shape == "sphere"
+    assert migrated.pipeline.collision_radius == 0.625  # self_collision was on
+
+
+def test_descriptions_without_materials_or_of_a_newer_format_are_refused():
+    with pytest.raises(PhysicsParameterError, match="invalid physics description"):
+        Physics.from_dict({"scene": {"contact_shape": "engine"}})
+    with pytest.raises(PhysicsParameterError, match="format 99"):
+        Physics.from_dict({**Physics().to_dict(), "format": 99})
+    with pytest.raises(PhysicsParameterError, match="pipeline must be"):
+        Physics().replace(pipeline=None)

@@ -6,11 +6,11 @@ import pytest
 
 from mjregen.grid import Robot
 from mjregen.physics import Physics
+from mjregen.physics.simulation import simulate
 from mjregen.recovery import measure_recovery, write_report
-from mjregen.simulate import simulate
 
 WALKER = Robot.load("assets/robots/paper/tripod.npy")  # walks 4.2 voxel lengths in 0.1 s
-QUICK = Physics().replace_scene(settle_time=0.01)
+QUICK = Physics().replace(settle_time=0.01)
 
 
 def test_recovery_table_from_real_simulations(tmp_path):

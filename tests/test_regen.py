@@ -124,7 +124,6 @@ def test_a_tiny_2d_regrowth_evolution_improves_similarity():
 
 def test_shipped_tripod_regrowth_nca_regrows_the_tripod_exactly():
     from mjregen.checkpoint import load_nca
-
     from mjregen.recovery import regrowth_robots
 
     nca, metadata = load_nca("assets/regen/tripod_ff.npz")

@@ -10,14 +10,23 @@ import imageio_ffmpeg
 import numpy as np
 import pytest
 
-from mjregen.compile import compile_robot
 from mjregen.errors import InvalidGridError
-from mjregen.grid import Material, Robot
 from mjregen.figures import MATERIAL_RGBA, growth_figure
+from mjregen.grid import Material, Robot
+from mjregen.physics.compile import compile_robot
+from mjregen.physics.simulation import simulate
 from mjregen.render import (
-    GLBackendError, RobotRenderer, VideoError, View, find_ffmpeg, record_walk, select_gl_backend,
-    walk_frame_count, write_frames, write_video)
-from mjregen.simulate import simulate
+    GLBackendError,
+    RobotRenderer,
+    VideoError,
+    View,
+    find_ffmpeg,
+    record_walk,
+    select_gl_backend,
+    walk_frame_count,
+    write_frames,
+    write_video,
+)
 
 SMALL = View(width=160, height=120)
 
@@ -97,7 +106,7 @@ def test_unusable_backend_is_a_clear_error():
     backend (in a child process: a failed GL platform must not stay loaded in this one)."""
     env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
     env["MUJOCO_GL"] = "glfw"
-    code = ("import numpy as np; from mjregen.compile import compile_robot; "
+    code = ("import numpy as np; from mjregen.physics.compile import compile_robot; "
             "from mjregen.grid import Robot; from mjregen.render import RobotRenderer; "
             "RobotRenderer(compile_robot(Robot.from_body(np.ones((1, 1, 1)))))")
     done = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,

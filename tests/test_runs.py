@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from mjregen.checkpoint import load_nca
+from mjregen.evaluation import PopulationEvaluation
 from mjregen.evolve import GAConfig
 from mjregen.grid import Robot
-from mjregen.evaluation import PopulationEvaluation
 from mjregen.nca import NCAConfig, grow
 from mjregen.parallel import SerialBackend
 from mjregen.runs import RunFolderError, run_evolution

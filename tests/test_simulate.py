@@ -6,11 +6,17 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mjregen.compile import compile_robot
 from mjregen.errors import InvalidGridError
+from mjregen.fitness import (
+    EMPTY_FITNESS,
+    UNSTABLE_FITNESS,
+    VOXEL_COST,
+    locomotion_fitness,
+)
 from mjregen.grid import Robot
 from mjregen.physics import Physics, PhysicsParameterError
-from mjregen.simulate import simulate, simulation_of
+from mjregen.physics.compile import compile_robot
+from mjregen.physics.simulation import simulate, simulation_of
 
 ROBOTS = Path(__file__).resolve().parents[1] / "assets" / "robots"
 
@@ -29,13 +35,14 @@ def test_two_phase_walker_moves(walker_3d):
     start = np.searchsorted(result.times, 0.05)
     displacement = result.com[-1] - result.com[start]
     assert abs(displacement[0]) > 10 * abs(displacement[1])
-    assert result.fitness == pytest.approx(result.distance - 0.0583 * 20, abs=1e-12)
+    assert result.dim == 3 and VOXEL_COST == 0.0583
+    assert locomotion_fitness(result) == pytest.approx(result.distance - 0.0583 * 20, abs=1e-12)
 
 
 def test_two_phase_walker_moves_in_2d():
     result = simulate(Robot.load(ROBOTS / "bimorph_walker_2d.npy"))
     assert result.stable and result.distance > 0.4  # 0.75 in the paper's 10 cycles
-    assert result.fitness == result.distance
+    assert result.dim == 2 and locomotion_fitness(result) == result.distance
 
 
 def test_mirror_symmetric_in_phase_robot_does_not_move():
@@ -58,7 +65,7 @@ def test_record_covers_settle_and_measurement(walker_3d):
 
 def test_same_robot_gives_bit_identical_results():
     robot = Robot.from_body(np.array([[3, 1], [4, 2], [3, 4]], dtype=np.int8))
-    physics = Physics().replace_scene(settle_time=0.02, measured_time=0.05)
+    physics = Physics().replace(settle_time=0.02, measured_time=0.05)
     a = simulate(robot, physics=physics, record=True)
     b = simulate(robot, physics=physics, record=True)
     assert a.distance == b.distance and a.steps == b.steps
@@ -78,19 +85,21 @@ def test_duration_sets_the_measured_time():
 @pytest.mark.parametrize("shape, fitness", [((5, 5, 5), -20.0), ((5, 5), 0.0)])
 def test_empty_robot_scores_without_simulating(shape, fitness):
     result = simulate(Robot(np.zeros(shape, dtype=np.int8)))
-    assert result.fitness == fitness and result.steps == 0 and result.n_voxels == 0
+    assert result.dim == len(shape) and EMPTY_FITNESS[result.dim] == fitness
+    assert locomotion_fitness(result) == fitness and result.steps == 0 and result.n_voxels == 0
 
 
 def test_unstable_run_is_flagged_with_penalty_not_raised():
     """20× the stable time step makes explicit integration diverge: a defined result."""
     robot = Robot.from_body(np.ones((2, 2, 2), dtype=np.int8))
-    physics = Physics().replace_scene(timestep_safety=20.0)
+    physics = Physics().replace(timestep_safety=20.0)
     result = simulate(robot, physics=physics)
     assert not result.stable and result.reason
-    assert result.fitness == -21.0 and math.isnan(result.distance)
+    assert locomotion_fitness(result) == UNSTABLE_FITNESS[3] == -21.0
+    assert math.isnan(result.distance)
     assert result.steps < round(0.55 / result.timestep)  # stopped early
     result_2d = simulate(Robot.from_body(np.ones((2, 2), dtype=np.int8)), physics=physics)
-    assert not result_2d.stable and result_2d.fitness == -1.0
+    assert not result_2d.stable and locomotion_fitness(result_2d) == UNSTABLE_FITNESS[2] == -1.0
 
 
 def test_invalid_grid_is_rejected_before_simulation():
@@ -110,14 +119,14 @@ def test_default_timestep_is_stable_for_a_block_with_interior_voxels(element):
     A hard 4×4×4 block has 8 interior voxels with 6 bonds each, the stiffest connectivity
     a robot can have. Kicked with random velocities (every mode excited; a symmetric drop
     would leave the fastest, antisymmetric modes at rest), free of floor and gravity: at
-    the default it runs; at 1.25 × the stability limit of `Physics.timestep` it diverges,
+    the default it runs; at 1.25 × the stability limit of the time-step rule it diverges,
     and the guard catches it. Beams and tendons have the same linear stiffness and damping,
     so the same limit (both run at 1.05 and diverge at 1.1).
     """
     robot = Robot.from_body(np.full((4, 4, 4), 2, dtype=np.int8))
     outcomes = []
     for safety in (0.75, 1.25):
-        physics = Physics().replace_scene(timestep_safety=safety, bond_element=element,
+        physics = Physics().replace(timestep_safety=safety, bond_element=element,
                                           floor=False, gravity=0.0)
         sim = simulation_of(compile_robot(robot, physics=physics))
         sim.data.qvel[:] = np.random.default_rng(1).normal(size=sim.model.nv) * 1e-3

@@ -2,17 +2,20 @@
 
 from __future__ import annotations
 
+import json
 import math
+from pathlib import Path
 
 import mujoco
 import numpy as np
 import pytest
 
-from mjregen.compile import compile_robot
+from mjregen.fitness import UNSTABLE_FITNESS, locomotion_fitness
 from mjregen.grid import Robot
 from mjregen.physics import Physics, PhysicsParameterError, native
-from mjregen.simulate import simulate, simulation_of
-from mjregen.stepping import NativeStepper, unsupported
+from mjregen.physics.compile import compile_robot
+from mjregen.physics.simulation import Simulation, simulate, simulation_of
+from mjregen.physics.stepper import NativeStepper, unsupported
 
 pytestmark = pytest.mark.skipif(not native.available(),
                                 reason="no C compiler for the voxel plugin")
@@ -20,25 +23,29 @@ pytestmark = pytest.mark.skipif(not native.available(),
 SLAB = np.ones((4, 3, 2), dtype=np.int8)
 SLAB[:, :, 0] = np.where(np.arange(4)[:, None] % 2 == 0, 3, 4)
 SLAB[1, 1, 1] = 2
-MUJOCO = Physics().replace_scene(stepper="mujoco")
-NATIVE = Physics().replace_scene(stepper="native")
+MUJOCO = Physics().replace(stepper="mujoco")
+NATIVE = Physics().replace(stepper="native")
+# the pure-MuJoCo pipeline as the old flat scene's defaults built it (MuJoCo's tendons and
+# point contacts, shear-rigid bonds, damping 0.8, self-collision 0.625 L, the network step)
+POINT = Physics().replace(pipeline="mujoco", contact_shape="point", bond_model="euler_bernoulli",
+                          contact_damping=0.8, collision_radius=0.625, timestep_rule="network")
 
 
 def _run(robot: Robot, physics: Physics, steps: int, **compile_options):
     sim = simulation_of(compile_robot(robot, physics=physics, **compile_options))
-    assert (sim.stepper is not None) == (physics.scene.stepper != "mujoco")
+    assert (sim.stepper is not None) == (physics.pipeline.stepper != "mujoco")
     assert sim.run(steps) == ""
     return sim
 
 
-@pytest.mark.parametrize("physics", [NATIVE, NATIVE.replace_scene(bond_element="tendons")],
+@pytest.mark.parametrize("physics", [NATIVE, NATIVE.replace(bond_element="tendons")],
                          ids=["beams", "tendons"])
 @pytest.mark.parametrize("grid", [SLAB, SLAB[:, 1, :]], ids=["3d", "2d"])
 def test_same_motion_as_mj_step(grid, physics):
     """Settle 5 ms, then walk: 3000 steps with floor contacts, friction and muscles."""
     robot = Robot.from_body(grid)
-    physics = physics.replace_scene(settle_time=0.005)
-    a = _run(robot, physics.replace_scene(stepper="mujoco"), 3000)
+    physics = physics.replace(settle_time=0.005)
+    a = _run(robot, physics.replace(stepper="mujoco"), 3000)
     b = _run(robot, physics, 3000)
     assert b.data.time == pytest.approx(a.data.time, rel=1e-15)
     assert np.max(np.abs(a.data.qpos - b.data.qpos)) < 1e-12  # m (and quaternion units)
@@ -49,10 +56,10 @@ def test_same_motion_as_mj_step(grid, physics):
 def test_clamped_voxels_stay_and_the_rest_moves_like_mj_step():
     robot = Robot.from_body(np.full((4, 1, 1), 2, dtype=np.int8))
     root = next(iter(robot.voxels()))[0]
-    physics = Physics().replace_scene(floor=False)
-    a = _run(robot, physics.replace_scene(stepper="mujoco"), 2000, clamped=[root],
+    physics = Physics().replace(floor=False)
+    a = _run(robot, physics.replace(stepper="mujoco"), 2000, clamped=[root],
              elevation=2e-3)
-    b = _run(robot, physics.replace_scene(stepper="native"), 2000, clamped=[root],
+    b = _run(robot, physics.replace(stepper="native"), 2000, clamped=[root],
              elevation=2e-3)
     assert np.max(np.abs(a.data.qpos - a.model.qpos0)) > 1e-6  # it sagged
     assert np.max(np.abs(a.data.qpos - b.data.qpos)) < 1e-12
@@ -61,7 +68,7 @@ def test_clamped_voxels_stay_and_the_rest_moves_like_mj_step():
 
 def test_free_fall_is_semi_implicit_euler():
     """No floor: after n steps z = z0 − g dt² n(n+1)/2 and v = −g n dt (exactly the Euler map)."""
-    physics = NATIVE.replace_scene(floor=False, drag_ratio=0.0)
+    physics = NATIVE.replace(floor=False, drag_ratio=0.0)
     sim = simulation_of(compile_robot(Robot.from_body(np.full((2, 2, 2), 1, np.int8)),
                                       physics=physics))
     z0 = sim.data.qpos[2]
@@ -74,7 +81,7 @@ def test_free_fall_is_semi_implicit_euler():
 
 def test_spin_about_a_fixed_axis_turns_by_omega_t():
     """A lone voxel spun about a body axis: the quaternion turns by ω·t (no gravity, floor)."""
-    physics = NATIVE.replace_scene(floor=False, gravity=0.0, drag_ratio=0.0)
+    physics = NATIVE.replace(floor=False, gravity=0.0, drag_ratio=0.0)
     sim = simulation_of(compile_robot(Robot.from_body(np.ones((1, 1, 1), np.int8)),
                                       physics=physics))
     omega, n = 300.0, 4000  # rad/s
@@ -105,9 +112,8 @@ def test_default_uses_the_native_stepper_where_the_model_qualifies():
     compiled = compile_robot(robot)
     assert unsupported(compiled.model) == ""
     assert simulation_of(compiled).stepper is not None
-    point = Physics().replace_scene(contact_shape="point", bond_element="tendons")
-    sim = simulation_of(compile_robot(robot, physics=point))  # MuJoCo tendons and contacts
-    assert sim.stepper is None
+    sim = simulation_of(compile_robot(robot, physics=POINT))  # MuJoCo tendons and contacts
+    assert sim.stepper is None  # the pure-MuJoCo pipeline: always mj_step
     assert "plugin" in unsupported(sim.model)
     compiled.model.opt.disableflags = 0  # the voxel model with MuJoCo's contact stages on
     assert "contacts" in unsupported(compiled.model)
@@ -115,14 +121,24 @@ def test_default_uses_the_native_stepper_where_the_model_qualifies():
 
 
 def test_native_stepper_refuses_what_it_cannot_step():
-    with pytest.raises(PhysicsParameterError, match="stepper 'native'"):
-        Physics().replace_scene(stepper="native", contact_shape="point",
-                                bond_element="tendons")
+    # the stepper is the voxel pipeline's: the pure-MuJoCo pipeline has none to choose
+    with pytest.raises(PhysicsParameterError, match="stepper: not a field of the scene or of "
+                                                    "the mujoco pipeline"):
+        Physics().replace(pipeline="mujoco", stepper="native", contact_shape="point")
     with pytest.raises(PhysicsParameterError, match="stepper must be one of"):
-        Physics().replace_scene(stepper="fast")
-    tendon_model = compile_robot(Robot.from_body(SLAB), physics=Physics().replace_scene(
-        contact_shape="point", bond_element="tendons")).model  # pure MuJoCo
+        Physics().replace(stepper="fast")
+    tendon_model = compile_robot(Robot.from_body(SLAB), physics=POINT).model  # pure MuJoCo
     assert unsupported(tendon_model)  # no plugin, MuJoCo contacts and tendons
+    # stepper "native" on a model it cannot step: refused ("auto" falls back to mj_step)
+    with pytest.raises(PhysicsParameterError, match="stepper 'native' cannot step this "
+                                                    "model: the model has no voxel plugin"):
+        Simulation(tendon_model, physics=NATIVE)
+    assert Simulation(tendon_model, physics=Physics()).stepper is None
+    contacts = compile_robot(Robot.from_body(SLAB), physics=NATIVE)
+    contacts.model.opt.disableflags = 0  # MuJoCo's contact stages on
+    with pytest.raises(PhysicsParameterError, match="stepper 'native' cannot step this "
+                                                    "model: MuJoCo contacts"):
+        simulation_of(contacts)
     with pytest.raises(ValueError, match="cannot step this model"):
         NativeStepper(tendon_model, mujoco.MjData(tendon_model))
     # what `unsupported` checks, the stepper checks again against MuJoCo's own mass matrix
@@ -139,9 +155,9 @@ def test_native_stepper_refuses_what_it_cannot_step():
 
 
 def test_qfrc_applied_acts_like_in_mj_step():
-    physics = Physics().replace_scene(floor=False, gravity=0.0)
+    physics = Physics().replace(floor=False, gravity=0.0)
     robot = Robot.from_body(SLAB)
-    sims = [simulation_of(compile_robot(robot, physics=physics.replace_scene(stepper=s)))
+    sims = [simulation_of(compile_robot(robot, physics=physics.replace(stepper=s)))
             for s in ("mujoco", "native")]
     for sim in sims:
         sim.data.qfrc_applied[0] = 1e-4  # N on the first voxel along x
@@ -159,14 +175,19 @@ def test_bad_state_stops_and_is_reported_unstable():
     sim.data.qvel[4] = 1e11  # rad/s: beyond MuJoCo's bad-value bound
     assert "mjWARN_BAD" in sim.run(10)
     # an unstable time step is reported as unstable, not raised
-    result = simulate(Robot.from_body(SLAB), physics=Physics().replace_scene(timestep_safety=3.0))
-    assert not result.stable and result.fitness == -21.0
+    result = simulate(Robot.from_body(SLAB), physics=Physics().replace(timestep_safety=3.0))
+    assert not result.stable and locomotion_fitness(result) == UNSTABLE_FITNESS[3] == -21.0
 
 
 def test_descriptions_without_a_stepper_replay_with_mj_step():
-    values = Physics().to_dict()
-    assert values["scene"]["stepper"] == "auto"
-    values.pop("format", None)  # written before the stepper (and description formats)
-    del values["scene"]["stepper"]
-    assert Physics.from_dict(values).scene.stepper == "mujoco"
+    """A format-1 description written before the native stepper (the shipped walkers'):
+    the voxel pipeline with ``mj_step``, as it was evaluated."""
+    manifest = Path(__file__).resolve().parents[1] / "assets" / "nca" / "manifest.json"
+    old = json.loads(manifest.read_text())["walker_3d.npz"]["evaluation"]["physics"]
+    assert "format" not in old and "stepper" not in old["scene"]
+    physics = Physics.from_dict(old)
+    assert physics.pipeline.name == "voxel" and physics.pipeline.stepper == "mujoco"
+    assert Physics.from_dict({**old, "scene": {**old["scene"], "stepper": "auto"}}
+                             ).pipeline.stepper == "auto"
+    assert Physics().to_dict()["pipeline"]["stepper"] == "auto"
     assert Physics.from_dict(Physics().to_dict()) == Physics()

@@ -48,21 +48,21 @@ PHYSICS = ("default", "paper", "sphere", "legacy")
 
 
 def add_physics_choice(parser: argparse.ArgumentParser) -> None:
-    """--physics: the default model (= the paper-engine preset) or an earlier model."""
+    """--physics (a preset), --bonds and --timestep-rule."""
     parser.add_argument("--physics", choices=PHYSICS,
-                        help="'default' (the default) = 'paper': the paper engine's physics "
-                             "(docs/fidelity.md); 'sphere' or 'legacy': earlier MuJoCo-contact "
-                             "models that need no C compiler (mjregen.physics)")
+                        help="'default' (the default) = 'paper': the paper engine's physics in "
+                             "the voxel plugin (docs/fidelity.md); 'sphere' or 'legacy': the "
+                             "pure-MuJoCo pipeline (MuJoCo tendons and contacts, no C "
+                             "compiler needed; mjregen.physics.presets)")
     parser.add_argument("--bonds", choices=("tendons", "beam"),
-                        help="bond element: 'beam' (the default: one beam element per "
-                             "bond) or 'tendons' (8 tendons per bond, the model before issue "
-                             "#8, ~2x the CPU time; docs/performance.md)")
+                        help="voxel pipeline's bond element: 'beam' (the default: one beam "
+                             "element per bond) or 'tendons' (8 tendons per bond, the same "
+                             "linear stiffness at ~2x the CPU time; docs/performance.md)")
     parser.add_argument("--timestep-rule", choices=("network", "stiffest_bond"),
                         help="time step: 0.75 of Euler's stability limit of the robot's own "
-                             "bond network ('network', the default) or of a block of its "
-                             "stiffest bond ('stiffest_bond': the rule before issue #8, "
-                             "smaller integration errors at 1.1-2.2x the CPU time; "
-                             "docs/accuracy.md)")
+                             "bond network ('network', the voxel pipeline's default) or of a "
+                             "block of its stiffest bond ('stiffest_bond': smaller "
+                             "integration errors at 1.1-2.2x the CPU time; docs/accuracy.md)")
     parser.set_defaults(settle=None)
 
 
@@ -76,13 +76,16 @@ def add_physics_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def physics_from_args(args: argparse.Namespace):
-    """The `Physics` that --physics and --settle describe."""
+    """The `Physics` that --physics, --bonds, --timestep-rule and --settle describe."""
     from mjregen.physics import Physics, legacy_physics, paper_physics, sphere_physics
 
     presets = {"paper": paper_physics, "sphere": sphere_physics, "legacy": legacy_physics}
     physics = presets.get(args.physics, Physics)()
     if args.bonds is not None:
-        physics = physics.replace_scene(bond_element=args.bonds)
+        if physics.pipeline.name != "voxel":
+            raise MjregenError(f"--bonds sets the voxel pipeline's bond element; --physics "
+                               f"{args.physics} is the pure-MuJoCo pipeline (8 tendons per bond)")
+        physics = physics.replace(bond_element=args.bonds)
     if args.timestep_rule is not None:
-        physics = physics.replace_scene(timestep_rule=args.timestep_rule)
-    return physics if args.settle is None else physics.replace_scene(settle_time=args.settle)
+        physics = physics.replace(timestep_rule=args.timestep_rule)
+    return physics if args.settle is None else physics.replace(settle_time=args.settle)

@@ -6,8 +6,13 @@ import argparse
 import json
 from pathlib import Path
 
-from mjregen.cli.common import (add_ga_arguments, add_physics_arguments, add_run_folder_arguments,
-                                ga_config, physics_from_args)
+from mjregen.cli.common import (
+    add_ga_arguments,
+    add_physics_arguments,
+    add_run_folder_arguments,
+    ga_config,
+    physics_from_args,
+)
 from mjregen.errors import MjregenError
 
 
@@ -89,8 +94,8 @@ def _stored_run(args: argparse.Namespace) -> tuple:
              "sigma": (args.sigma, ga.sigma), "seed": (args.seed, stored["seed"]),
              "duration": (args.duration, task.duration),
              "settle": (args.settle, task.physics.scene.settle_time),
-             "bonds": (args.bonds, task.physics.scene.bond_element),
-             "timestep-rule": (args.timestep_rule, task.physics.scene.timestep_rule)}
+             "bonds": (args.bonds, getattr(task.physics.pipeline, "bond_element", None)),
+             "timestep-rule": (args.timestep_rule, task.physics.pipeline.timestep_rule)}
     if args.physics is not None and physics_from_args(args) != task.physics:
         given["physics"] = (args.physics, "other physics")
     conflicts = [f"--{k} {v} (run has {s})" for k, (v, s) in given.items() if v is not None and v != s]

@@ -8,8 +8,13 @@ from pathlib import Path
 
 import numpy as np
 
-from mjregen.cli.common import (add_ga_arguments, add_physics_arguments, add_run_folder_arguments,
-                                ga_config, physics_from_args)
+from mjregen.cli.common import (
+    add_ga_arguments,
+    add_physics_arguments,
+    add_run_folder_arguments,
+    ga_config,
+    physics_from_args,
+)
 from mjregen.errors import MjregenError
 
 PAPER_ROBOTS = Path(__file__).resolve().parents[2] / "assets" / "robots" / "paper"
@@ -61,11 +66,11 @@ def _original(args: argparse.Namespace):
 
 
 def _regen(args: argparse.Namespace) -> int:
+    from mjregen.figures import growth_figure
     from mjregen.grid import Robot
     from mjregen.nca import CAState, NCAConfig
     from mjregen.parallel import SerialBackend
     from mjregen.recovery import measure_recovery, write_report
-    from mjregen.figures import growth_figure
     from mjregen.regen import RegrowthTask, cut_half_space, paper_cut
     from mjregen.runs import run_evolution
 
@@ -112,7 +117,7 @@ def _regen(args: argparse.Namespace) -> int:
 
 
 def _videos(robots: dict, physics, args: argparse.Namespace) -> None:
-    from mjregen.compile import compile_robot
+    from mjregen.physics.compile import compile_robot
     from mjregen.render import record_walk, write_video
 
     for role, robot in robots.items():

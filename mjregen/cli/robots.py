@@ -8,8 +8,12 @@ from pathlib import Path
 
 import numpy as np
 
-from mjregen.cli.common import (add_physics_arguments, add_physics_choice, material_counts,
-                                physics_from_args)
+from mjregen.cli.common import (
+    add_physics_arguments,
+    add_physics_choice,
+    material_counts,
+    physics_from_args,
+)
 from mjregen.errors import MjregenError
 from mjregen.grid import Robot
 
@@ -115,19 +119,21 @@ def add_walk(subparsers: argparse._SubParsersAction) -> None:
 
 def _walk(args: argparse.Namespace) -> int:
     from mjregen.fileio import atomic_open
-    from mjregen.simulate import simulate
+    from mjregen.fitness import locomotion_fitness
+    from mjregen.physics.simulation import simulate
 
     robot = Robot.load(args.robot)
     if args.trajectory is not None and args.trajectory.exists() and not args.force:
         raise FileExistsError(f"{args.trajectory} exists; pass --force to replace it")
     result = simulate(robot, physics=physics_from_args(args), duration=args.duration,
                       record=args.trajectory is not None)
+    fitness = locomotion_fitness(result)
     if args.trajectory is not None and result.com is not None:
         with atomic_open(args.trajectory, "w") as handle:
             handle.write("t,x,y,z\n")
             np.savetxt(handle, np.column_stack([result.times, result.com]), delimiter=",", fmt="%.9g")
     report = {"robot": str(args.robot), "voxels": result.n_voxels, "distance": result.distance,
-              "fitness": result.fitness, "stable": result.stable, "reason": result.reason,
+              "fitness": fitness, "stable": result.stable, "reason": result.reason,
               "steps": result.steps, "sim_time": result.sim_time, "timestep": result.timestep,
               "wall_time": result.wall_time, "cpu_time": result.cpu_time}
     if args.json:
@@ -135,7 +141,7 @@ def _walk(args: argparse.Namespace) -> int:
         return 0
     verdict = "stable" if result.stable else f"UNSTABLE ({result.reason})"
     print(f"{args.robot}: {result.n_voxels} voxels, distance {result.distance:.4f} voxel lengths, "
-          f"fitness {result.fitness:.4f}, {verdict}")
+          f"fitness {fitness:.4f}, {verdict}")
     print(f"{result.steps} steps of {result.timestep:.3g} s ({result.sim_time:.3f} s simulated) "
           f"in {result.wall_time:.2f} s wall, {result.cpu_time:.2f} s CPU")
     return 0
@@ -154,7 +160,7 @@ def add_export(subparsers: argparse._SubParsersAction) -> None:
         f"plugin library once: mujoco.mj_loadPluginLibrary('{library_path()}') (built on "
         "first use; mjregen.plugin_library() returns the path). With --physics sphere or "
         "legacy (pure MuJoCo) the muscles' tendons are the first ones in the file and their "
-        "rest lengths are rewritten every step by mjregen.simulate.Simulation.",
+        "rest lengths are rewritten every step by mjregen.physics.simulation.Simulation.",
     )
     parser.add_argument("robot", type=Path, help="robot file (.npy)")
     add_physics_choice(parser)
@@ -167,8 +173,8 @@ def add_export(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _export(args: argparse.Namespace) -> int:
-    from mjregen.compile import compile_robot
     from mjregen.fileio import atomic_open
+    from mjregen.physics.compile import compile_robot
 
     robot = Robot.load(args.robot)
     if robot.is_empty:
@@ -207,7 +213,7 @@ def add_render(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _render(args: argparse.Namespace) -> int:
-    from mjregen.compile import compile_robot
+    from mjregen.physics.compile import compile_robot
     from mjregen.render import View, record_walk, write_frames, write_video
 
     robot = Robot.load(args.robot)

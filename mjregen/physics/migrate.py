@@ -1,7 +1,9 @@
 """Physics descriptions written by any mjregen version -> today's format, in one place.
 
 A description (`Physics.to_dict`) carries ``"format"``; one without it is format 1 (run
-folders and asset manifests written before formats were recorded). `migrate_physics` brings
+folders and asset manifests written before formats were recorded: one flat scene, fields
+added later missing). Format 2: the same flat scene, complete. Format 3: the shared scene
+and one pipeline with its parameters. `migrate_physics` brings
 any format to `PHYSICS_FORMAT` step by step, stating what each step assumes, so that an old
 run resumes, and an old walker replays, with exactly the physics it was evolved with.
 """
@@ -12,27 +14,78 @@ import copy
 
 from mjregen.errors import PhysicsParameterError
 
-PHYSICS_FORMAT = 2
+PHYSICS_FORMAT = 3
+
+
+# format 1: one flat scene; a field missing from a description took the value below (the
+# defaults of the scene class then), except the three that were added later
+_FORMAT_1_DEFAULTS = {
+    "voxel_size": 1e-3, "gravity": 27.468, "frequency": 40.0, "waveform": "contract",
+    "settle_time": None, "measured_time": None, "bond_damping_ratio": 0.4,
+    "integrator": "euler", "timestep_safety": 0.75, "floor": True, "contact_timeconst": 3e-4,
+    "contact_dampratio": 1.0, "contact_width": 1e-5, "bond_model": "euler_bernoulli",
+    "drag_ratio": 0.001, "contact_shape": "engine", "contact_stiffness": 2.0,
+    "contact_damping": 0.8, "self_collision": True, "damp_strain_rate": False,
+    "collision_radius": 0.625,
+    "bond_element": "tendons",  # before beam bonds: 8 tendons per bond
+    "stepper": "mujoco",  # before the fast path: mj_step (the same motion to rounding)
+    "timestep_rule": "stiffest_bond",  # before the network rule
+}
+_SHARED = ("voxel_size", "gravity", "frequency", "waveform", "settle_time", "measured_time",
+           "bond_damping_ratio", "drag_ratio", "floor", "timestep_safety")
 
 
 def _format_1_to_2(description: dict) -> dict:
-    """Format 1: fields added later were absent (their old behaviour applies) and two fields
-    existed that mjregen no longer has."""
-    scene = description["scene"]
-    scene.setdefault("bond_element", "tendons")  # before beam bonds: 8 tendons per bond
-    scene.setdefault("stepper", "mujoco")  # before the fast path: mj_step (same motion)
-    scene.setdefault("timestep_rule", "stiffest_bond")  # before the network rule
-    # how bonds were computed (MuJoCo tendons or the same forces in C) is now the pipeline's
-    # choice (contact_shape "engine": the voxel plugin; else MuJoCo tendons)
+    """Format 1 -> 2: missing fields take the values they had (`_FORMAT_1_DEFAULTS`); how
+    bonds were computed (`bond_backend`: MuJoCo tendons or the same forces in C) and the
+    strain-rate drive are gone."""
+    unknown = set(description["scene"]) - set(_FORMAT_1_DEFAULTS) - {"bond_backend"}
+    if unknown:
+        raise PhysicsParameterError(f"unknown scene fields {sorted(unknown)}")
+    scene = {**_FORMAT_1_DEFAULTS, **description["scene"]}
     scene.pop("bond_backend", None)
-    if scene.pop("damp_strain_rate", False):
+    if scene.pop("damp_strain_rate"):
         raise PhysicsParameterError(
             "this physics description damps the muscles' strain rate (damp_strain_rate), "
             "which mjregen no longer models")
-    return description
+    return {**description, "scene": scene}
 
 
-_STEPS = {1: _format_1_to_2}
+def _format_2_to_3(description: dict) -> dict:
+    """Format 2's flat scene -> the shared scene and a pipeline: contact shape "engine" was
+    the voxel plugin's floor (then computed in a passive callback: the same forces), any
+    other shape the pure-MuJoCo model."""
+    old = description["scene"]
+    missing = set(_FORMAT_1_DEFAULTS) - {"damp_strain_rate"} - set(old)
+    if missing:
+        raise PhysicsParameterError(f"scene fields missing: {sorted(missing)}")
+    radius = old["collision_radius"] if old["self_collision"] else 0.0
+    if old["contact_shape"] == "engine":
+        if old["integrator"] != "euler":
+            raise PhysicsParameterError("the engine floor was only ever stepped with Euler")
+        pipeline = {"name": "voxel", "bond_element": old["bond_element"],
+                    "bond_model": old["bond_model"],
+                    "floor_stiffness": old["contact_stiffness"],
+                    "floor_damping": old["contact_damping"], "collision_radius": radius,
+                    "timestep_rule": old["timestep_rule"], "stepper": old["stepper"]}
+    else:
+        if old["bond_element"] == "beam":
+            raise PhysicsParameterError(
+                "beam bonds with MuJoCo contacts are no longer a model mjregen has (beams are "
+                "the voxel plugin's, with the engine floor)")
+        pipeline = {"name": "mujoco", "contact_shape": old["contact_shape"],
+                    "bond_model": old["bond_model"],
+                    "contact_stiffness": old["contact_stiffness"],
+                    "contact_damping": old["contact_damping"],
+                    "contact_timeconst": old["contact_timeconst"],
+                    "contact_dampratio": old["contact_dampratio"],
+                    "contact_width": old["contact_width"], "collision_radius": radius,
+                    "integrator": old["integrator"], "timestep_rule": old["timestep_rule"]}
+    return {"materials": description["materials"],
+            "scene": {key: old[key] for key in _SHARED}, "pipeline": pipeline}
+
+
+_STEPS = {1: _format_1_to_2, 2: _format_2_to_3}
 
 
 def migrate_physics(description: dict) -> dict:
@@ -42,7 +95,8 @@ def migrate_physics(description: dict) -> dict:
       PhysicsParameterError: not a physics description, a format newer than this mjregen
         knows, or a setting that no longer exists.
     """
-    if not isinstance(description, dict) or not isinstance(description.get("scene"), dict):
+    if not isinstance(description, dict) or not isinstance(description.get("scene"), dict) \
+            or not isinstance(description.get("materials"), dict):
         raise PhysicsParameterError(f"invalid physics description: {description!r:.200}")
     out = copy.deepcopy(description)
     version = out.pop("format", 1)

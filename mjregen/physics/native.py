@@ -14,7 +14,7 @@ Any MuJoCo program loads an exported robot after one call::
 `library()` loads it in this process (registering the plugin) and returns it as a ctypes
 library, whose two extra entry points (`mjr_step`, `mjr_network_forces`) the fast stepper
 and the time-step rule call. On load the configuration attributes the plugin registers are
-checked against `ATTRIBUTES`, the keys `mjregen.compile` writes.
+checked against `ATTRIBUTES`, the keys `mjregen.physics.mjcf` writes.
 """
 
 from __future__ import annotations

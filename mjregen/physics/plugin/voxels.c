@@ -158,6 +158,13 @@ static int bind_bodies(const mjModel* m, int instance, mjrVoxels* v, char* error
 static mjrVoxels* configure(const mjModel* m, int instance, char* error, int error_sz) {
   mjrVoxels* v = (mjrVoxels*)calloc(1, sizeof(mjrVoxels));
   int ok = 1;
+  if (m->opt.integrator != mjINT_EULER) {
+    /* the floor's stick rule and the muscles' time are defined per Euler step */
+    snprintf(error, error_sz, "mjregen.voxels: the model's integrator must be Euler (the "
+             "floor's stick state and the muscle drive advance once per Euler step)");
+    free(v);
+    return NULL;
+  }
   v->dim = (int)parse_scalar(m, instance, "dim", &ok, error, error_sz);
   if (ok && v->dim != 2 && v->dim != 3) {
     snprintf(error, error_sz, "mjregen.voxels: dim must be 2 or 3, got %d", v->dim);

@@ -1,12 +1,12 @@
 """Settle, actuate, measure: one locomotion evaluation of a robot, with a stability guard.
 
-`simulate(robot)` compiles the robot (`mjregen.compile`), lets it settle without actuation
+`simulate(robot)` compiles the robot (`mjregen.physics.compile`), lets it settle without actuation
 for the scene's settle time, then drives the muscles for the measured time and returns a
 `Result`. In the voxel pipeline (the default) every force and the muscles are the voxel
 plugin's, inside MuJoCo's step, so `Simulation.run` advances ``CHECK_EVERY`` steps per call
 between stability checks and runs no Python per step; the steps are the native stepper's
-(`mjregen.stepping`: ``mj_step``'s Euler step for independent voxel bodies, to rounding, at
-half the cost) or ``mj_step``'s (``Scene.stepper``). In the pure-MuJoCo pipeline the only
+(`mjregen.physics.stepper`: ``mj_step``'s Euler step for independent voxel bodies, to rounding, at
+half the cost) or ``mj_step``'s (the pipeline's ``stepper``). In the pure-MuJoCo pipeline the only
 per-step Python work is writing the driven tendons' rest lengths.
 """
 
@@ -20,15 +20,14 @@ import mujoco
 import numpy as np
 from numpy.typing import ArrayLike
 
-from mjregen.compile import CompiledRobot, MuscleTendons, compile_robot
+from mjregen.errors import PhysicsParameterError
 from mjregen.grid import Robot
-from mjregen.modes import rotational_dofs
-from mjregen.physics import Physics, PhysicsParameterError, Scene
-from mjregen.stepping import NativeStepper, unsupported
+from mjregen.physics.compile import CompiledRobot, compile_robot
+from mjregen.physics.model import MuscleTendons
+from mjregen.physics.params import Physics
+from mjregen.physics.stepper import NativeStepper, unsupported
+from mjregen.physics.timestep import rotational_dofs
 
-VOXEL_COST = 0.0583  # 3D fitness penalty per voxel (≈ 20/343, the paper's)
-EMPTY_FITNESS = {3: -20.0, 2: 0.0}  # the paper's score of a robot without voxels
-UNSTABLE_FITNESS = {3: -21.0, 2: -1.0}  # below every stable robot and the empty one
 RUNAWAY_SPEED = 5000.0  # voxel lengths per second (5 m/s at 1 mm; walkers reach ~0.3 m/s)
 CHECK_EVERY = 200  # steps between checks for NaN and runaway speed
 WARNINGS = [(name, int(value)) for name, value in mujoco.mjtWarning.__members__.items()
@@ -41,9 +40,8 @@ class Result:
 
     Attributes:
       distance: planar (x, y) displacement of the centre of mass, in voxel lengths, from the
-        end of the settle to the end of the run (NaN when unstable).
-      fitness: the paper's: 3D distance − 0.0583·n_voxels, 2D distance; empty robot −20 (3D)
-        or 0 (2D); unstable run −21 (3D) or −1 (2D).
+        end of the settle to the end of the run (NaN when unstable; 0 for an empty robot).
+      dim: 2 or 3.
       n_voxels: number of voxels.
       stable: False when the state became NaN, MuJoCo warned, or a voxel ran away.
       reason: why the run is unstable ("" when stable).
@@ -56,7 +54,7 @@ class Result:
     """
 
     distance: float
-    fitness: float
+    dim: int
     n_voxels: int
     stable: bool
     reason: str
@@ -74,28 +72,30 @@ class Simulation:
     pipeline, its muscle drive).
 
     With `plugin_instance` (the voxel pipeline) the voxel plugin computes every force and
-    drives the muscles; `stepper` is the `mjregen.stepping.NativeStepper` that advances
-    `data` when `scene.stepper` allows, else None (``mj_step``). `run` then updates the
-    positional and velocity quantities (``xpos``, ``subtree_com``, ``cvel``) once at its end,
-    for the final state (``mj_step`` leaves those of the state before its last step).
+    drives the muscles; `stepper` is the `mjregen.physics.stepper.NativeStepper` that
+    advances `data` when the pipeline's ``stepper`` allows, else None (``mj_step``). `run`
+    then updates the positional and velocity quantities (``xpos``, ``subtree_com``,
+    ``cvel``) once at its end, for the final state (``mj_step`` leaves those of the state
+    before its last step).
     Without it (the pure-MuJoCo pipeline) `run` rewrites ``model.tendon_lengthspring`` of
     the driven tendons before every step, so give each `Simulation` its own model.
 
     Args:
       model: the MuJoCo model (also one loaded from the exported XML).
-      scene: actuation and timing settings.
+      physics: the robot's physics (voxel size, actuation, the pipeline's stepper).
       muscles: the pure-MuJoCo pipeline's driven tendons (None: passive robot, or the voxel
         plugin drives them).
       actuation_start: s, time at which the muscle waveform starts (phase 0), for `muscles`.
       plugin_instance: the voxel plugin's instance id in `model`, or None.
     """
 
-    def __init__(self, model: mujoco.MjModel, *, scene: Scene,
+    def __init__(self, model: mujoco.MjModel, *, physics: Physics,
                  muscles: MuscleTendons | None = None, actuation_start: float = 0.0,
                  plugin_instance: int | None = None) -> None:
         self.model = model
         self.data = mujoco.MjData(model)
         self.steps = 0
+        scene = physics.scene
         self._scene = scene
         self._start = actuation_start
         self._muscles = muscles
@@ -108,7 +108,7 @@ class Simulation:
             self._minus = length * muscles.weights[:, 1]
             self._lateral2 = muscles.lateral ** 2
             self._rest = self.model.tendon_lengthspring[: muscles.count]
-        self.stepper = _stepper_for(model, self.data, scene, plugin_instance)
+        self.stepper = _stepper_for(model, self.data, physics, plugin_instance)
         voxel = scene.voxel_size  # a rotation's speed limit: RUNAWAY_SPEED·L per L
         self._inv_limit = np.where(rotational_dofs(model), voxel, 1.0) / (RUNAWAY_SPEED * voxel)
 
@@ -198,24 +198,24 @@ class Simulation:
         return self.data.subtree_com[0].copy()
 
 
-def _stepper_for(model: mujoco.MjModel, data: mujoco.MjData, scene: Scene,
+def _stepper_for(model: mujoco.MjModel, data: mujoco.MjData, physics: Physics,
                  plugin_instance: int | None) -> NativeStepper | None:
-    """The `NativeStepper` that `scene.stepper` asks for, or None for ``mj_step``."""
-    if scene.stepper == "mujoco":
+    """The `NativeStepper` that the pipeline's ``stepper`` asks for, or None (``mj_step``)."""
+    choice = getattr(physics.pipeline, "stepper", "mujoco")
+    if choice == "mujoco":
         return None
     reason = "the model has no voxel plugin" if plugin_instance is None else unsupported(model)
     if not reason:
         return NativeStepper(model, data, instance=plugin_instance, checked=True)
-    if scene.stepper == "native":
+    if choice == "native":
         raise PhysicsParameterError(f"stepper 'native' cannot step this model: {reason}")
     return None
 
 
 def simulation_of(compiled: CompiledRobot) -> Simulation:
     """A `Simulation` of a compiled robot (muscles from the end of the scene's settle)."""
-    scene = compiled.physics.scene
-    settle, _ = scene.timing(compiled.robot.dim)
-    return Simulation(compiled.model, scene=scene, muscles=compiled.muscles,
+    settle, _ = compiled.physics.scene.timing(compiled.robot.dim)
+    return Simulation(compiled.model, physics=compiled.physics, muscles=compiled.muscles,
                       actuation_start=settle, plugin_instance=compiled.plugin_instance)
 
 
@@ -229,14 +229,14 @@ def simulate(
     """Evaluate a robot's locomotion: settle, actuate, measure.
 
     Args:
-      robot: a `Robot` or a grid that validates as one (2D or 3D); an empty one scores
-        without simulating.
-      physics: materials and scene; None = the paper's.
+      robot: a `Robot` or a grid that validates as one (2D or 3D); an empty one gives
+        distance 0 without simulating.
+      physics: materials, scene and pipeline; None = the paper's.
       duration: s of actuation that the distance counts; None = the scene's measured time.
       record: also return the centre-of-mass trajectory (every step).
     Returns:
-      A `Result`; an unstable run is marked ``stable=False`` with the penalty fitness and
-      never raises.
+      A `Result`; an unstable run is marked ``stable=False`` (distance NaN) and never
+      raises. The locomotion task's fitness: `mjregen.fitness.locomotion_fitness`.
     Raises:
       InvalidGridError: `robot` is not a valid grid.
       PhysicsParameterError: `duration` negative or not finite.
@@ -248,7 +248,7 @@ def simulate(
         raise PhysicsParameterError(f"duration must be a finite time >= 0 s, got {duration!r}")
     dim = robot.dim
     if robot.is_empty:
-        return Result(distance=0.0, fitness=EMPTY_FITNESS[dim], n_voxels=0, stable=True,
+        return Result(distance=0.0, dim=dim, n_voxels=0, stable=True,
                       reason="", steps=0, sim_time=0.0, timestep=0.0,
                       wall_time=time.perf_counter() - wall0,
                       cpu_time=time.process_time() - cpu0)
@@ -270,10 +270,8 @@ def simulate(
     planar = [0, 1] if dim == 3 else [0]
     distance = float(np.linalg.norm(end[planar] - start[planar])) / physics.scene.voxel_size
     stable = not reason
-    fitness = (distance - VOXEL_COST * robot.n_voxels if dim == 3 else distance) if stable \
-        else UNSTABLE_FITNESS[dim]
     return Result(
-        distance=distance if stable else math.nan, fitness=fitness, n_voxels=robot.n_voxels,
+        distance=distance if stable else math.nan, dim=dim, n_voxels=robot.n_voxels,
         stable=stable, reason=reason, steps=sim.steps, sim_time=sim.steps * dt, timestep=dt,
         wall_time=time.perf_counter() - wall0, cpu_time=time.process_time() - cpu0,
         times=None if com is None else np.arange(sim.steps + 1) * dt, com=com)

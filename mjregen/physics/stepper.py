@@ -3,7 +3,7 @@
 In the voxel pipeline every force on a voxel comes from the ``mjregen.voxels`` plugin, and
 MuJoCo's step has nothing left to do but integrate independent rigid bodies — through its
 generic pipeline (kinematics, composite inertia, factorisation, recursive Newton–Euler),
-about half the cost of a step. For the models `mjregen.compile` builds (each voxel a child
+about half the cost of a step. For the models `mjregen.physics.compile` builds (each voxel a child
 of the world, centre of mass at its joint, isotropic inertia, no joint damping, tendons,
 force-producing actuators, constraints or fluid) those equations reduce to a constant
 diagonal mass matrix and a constant gravity force, which ``plugin/step.c`` integrates
@@ -11,7 +11,7 @@ exactly like ``mj_step`` with the Euler integrator (same order, same quaternion 
 the plugin's forces and state advance, the same bad-value warnings), to rounding
 (tests/test_stepping.py).
 
-`unsupported(model)` says why a model does not qualify (then ``Scene.stepper`` "auto" steps
+`unsupported(model)` says why a model does not qualify (then ``stepper="auto"`` steps
 with ``mj_step``). Each `NativeStepper.step` call reads the masses, inertias, gravity and
 time step from the model (so changing them between calls acts as in MuJoCo); on creation
 the stepper checks that these give MuJoCo's own mass matrix and gravity force. It does not
@@ -110,7 +110,7 @@ class NativeStepper:
         """
         if np.any(self._data.xfrc_applied):
             raise ValueError("the native stepper does not apply xfrc_applied (use "
-                             "qfrc_applied, or Scene(stepper='mujoco'))")
+                             "qfrc_applied, or stepper='mujoco')")
         pointer = None
         if com is not None:
             if com.shape != (n_steps, 3) or com.dtype != np.float64 \

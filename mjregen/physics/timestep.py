@@ -1,24 +1,24 @@
-"""Fastest modes of a robot's bond network, for a time step fitted to the robot itself.
+"""The time step of a robot, decided once at compile time and stored in the model only.
 
-Semi-implicit Euler on a mode x'' + c x' + ω² x = 0 is stable iff h²ω² + 2hc ≤ 4. For the
-whole robot, ω² ≤ λ = λ_max(M⁻¹K) and c ≤ μ = λ_max(M⁻¹C), with K and C the stiffness and
-damping of the bonds linearised at rest (C = βK per bond: the mode with the largest ω²
-also has the largest c when β is uniform), so the step
+Two rules (the pipeline's ``timestep_rule``), both `Scene.timestep_safety` × a stability
+limit of semi-implicit Euler:
 
-    h = (√(μ² + 4λ) − μ) / λ
-
-is the limit of the robot's own network, where `Physics.timestep` assumes the stiffest
-topology (a block of its stiffest bond) for every robot.
-
-λ and μ are found by Lanczos iteration on the mass-weighted operators M^-½ K M^-½ and
-M^-½ C M^-½, applied matrix-free as central differences of the native bond forces
-(the voxel plugin's, `mjr_network_forces`: the very forces the simulation integrates) about the rest state:
-K y from displacements (positions and rotations, through ``mj_integratePos``), C y from
-velocities, without self-collision or actuation. The engine floor is included as if every
-voxel touched it (its penalty spring and damper on each voxel's vertical motion: the most
-any posture can add). Bonds whose muscles lengthen them stiffen, which the rest state
-leaves out: `strain_stiffening` bounds that (a factor on λ and μ that `compile_robot`
-applies: 1 for the paper's contract-only muscles, 1.75 at ±50 %).
+- "network": the limit of the robot's own bond network. Semi-implicit Euler on a mode
+  x'' + c x' + ω² x = 0 is stable iff h²ω² + 2hc ≤ 4. For the whole robot, ω² ≤ λ =
+  λ_max(M⁻¹K) and c ≤ μ = λ_max(M⁻¹C), with K and C the stiffness and damping of the bonds
+  linearised at rest (C = βK per bond: the mode with the largest ω² also has the largest c
+  when β is uniform), so the step h = (√(μ² + 4λ) − μ) / λ. λ and μ are found by Lanczos
+  iteration on the mass-weighted operators M^-½ K M^-½ and M^-½ C M^-½, applied
+  matrix-free as central differences of the voxel plugin's bond forces
+  (``mjr_network_forces``: the very forces the simulation integrates) about the rest state:
+  K y from displacements (positions and rotations, through ``mj_integratePos``), C y from
+  velocities, without self-collision or actuation. The engine floor is included as if
+  every voxel touched it (its spring and damper on each voxel's vertical motion: the most
+  any posture adds). Bonds whose muscles lengthen them stiffen, which the rest state leaves
+  out: `strain_stiffening` bounds that (1 for the paper's contract-only muscles, 1.75 at
+  ±50 %).
+- "stiffest_bond" (and robots without bonds): the limit of a block of the robot's
+  stiffest bond, the stiffest topology (`stiffest_bond_step`).
 """
 
 from __future__ import annotations
@@ -28,9 +28,12 @@ import math
 import mujoco
 import numpy as np
 
+from mjregen.errors import PhysicsParameterError
 from mjregen.physics import native
+from mjregen.physics.params import Physics
 
 LANCZOS_STEPS = 40
+MODE_RATIO = 2.7  # fastest bond-network mode / a Timoshenko bond's sqrt(k/m)
 RELATIVE_PROBE = 1e-7  # largest probe displacement, in voxel lengths (or radians)
 
 
@@ -173,3 +176,55 @@ def stable_step(stiffness_rate: float, damping_rate: float) -> float:
     if stiffness_rate <= 0.0:
         return math.inf if damping_rate <= 0.0 else 2.0 / damping_rate
     return (math.sqrt(damping_rate ** 2 + 4.0 * stiffness_rate) - damping_rate) / stiffness_rate
+
+
+def stiffest_bond_step(physics: Physics, stiffness_per_mass: float) -> float:
+    """Time step in s for the stiffest bond present (``timestep_rule="stiffest_bond"``,
+    and robots without bonds): `timestep_safety` × the stability limit
+    of semi-implicit Euler for the fastest mode of a block of that bond.
+
+    A bond of stiffness k between voxels of mass m has frequency ω_b = sqrt(k/m)
+    (`stiffness_per_mass` = k/m in s⁻², the largest over the robot's bonds). The network's
+    fastest mode is ω = r·ω_b, and stiffness-proportional damping (c = 2ζ sqrt(mk)) gives
+    it the damping ratio ζ·r. Semi-implicit Euler on x'' + 2ζr·ω x' + ω² x = 0 is stable
+    iff dt·ω < 2 (sqrt(1 + (ζr)²) − ζr), so
+
+        dt = safety × 2 (sqrt(1 + (ζr)²) − ζr) / (r ω_b).
+
+    r = MODE_RATIO (2.7) for Timoshenko bonds, measured from where 4³ and 5³ blocks
+    (interior voxels with 6 bonds: the stiffest topology) diverge at ζ = 1 and 2; shear-
+    rigid bonds ("euler_bernoulli") have diagonals 2(1+ν) times stiffer, so r grows by
+    sqrt(2(1+ν)) (measured: 4.4 from the limit at ζ = 0.4; predicted 4.44). The paper
+    engine's rule, 0.9/(2π ω_b), ignores damping and the network; with ζ = 1 it diverges
+    here (docs/accuracy.md).
+    """
+    if not (math.isfinite(stiffness_per_mass) and stiffness_per_mass > 0.0):
+        raise PhysicsParameterError(
+            f"stiffness_per_mass must be > 0 s⁻², got {stiffness_per_mass!r}")
+    ratio = MODE_RATIO
+    if physics.pipeline.bond_model == "euler_bernoulli":
+        poisson = max(p.poisson_ratio for p in physics.materials.values())
+        ratio *= math.sqrt(2.0 * (1.0 + poisson))
+    damped = physics.scene.bond_damping_ratio * ratio
+    limit = 2.0 * (math.sqrt(1.0 + damped * damped) - damped) / ratio
+    return physics.scene.timestep_safety * limit / math.sqrt(stiffness_per_mass)
+
+
+def engine_floor_rates(model: mujoco.MjModel, voxel_bodies: np.ndarray, *, dim: int,
+                       stiffness: np.ndarray, damping: np.ndarray, masses: np.ndarray
+                       ) -> tuple[np.ndarray, np.ndarray]:
+    """``(nv,)`` s⁻², s⁻¹: the engine floor's spring and damper per mass on each moving
+    voxel's vertical dof (0 elsewhere), as if every voxel touched the floor.
+
+    Args:
+      voxel_bodies: ``(n,)`` body ids; stiffness, damping, masses: ``(n,)`` N/m, N·s/m, kg.
+    """
+    k, c = np.zeros(model.nv), np.zeros(model.nv)
+    vertical = 2 if dim == 3 else 1
+    for voxel, body in enumerate(voxel_bodies):
+        if model.body_jntnum[body] == 0:
+            continue
+        dof = model.jnt_dofadr[model.body_jntadr[body]] + vertical
+        k[dof] = stiffness[voxel] / masses[voxel]
+        c[dof] = damping[voxel] / masses[voxel]
+    return k, c

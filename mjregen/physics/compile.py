@@ -1,0 +1,174 @@
+"""Robot grid + physics -> one MuJoCo model: what `simulate` runs and `to_xml` exports.
+
+The data flows one way: parameters (`params`, `presets`) -> arrays (`model`: voxels, bonds,
+no MuJoCo) -> `MjSpec` (`mjcf`: bodies and the voxel plugin, or MuJoCo's tendons and
+contacts) -> time step (`timestep`, decided here once and stored in the model's
+``opt.timestep`` only) -> `CompiledRobot`, which `mjregen.physics.simulation` steps.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Iterable, Sequence
+
+import mujoco
+import numpy as np
+
+from mjregen.errors import CompileError, PhysicsParameterError
+from mjregen.grid import Robot
+from mjregen.physics import mjcf, native, timestep
+from mjregen.physics.model import (
+    BeamTable,
+    BondTable,
+    MuscleTendons,
+    RobotLayout,
+    bond_tables,
+    robot_layout,
+    round_like_mjcf,
+    voxel_name,
+)
+from mjregen.physics.params import Physics, VoxelPipeline
+
+
+@dataclass(frozen=True)
+class CompiledRobot:
+    """A robot compiled to MuJoCo.
+
+    Attributes:
+      robot, physics: what was compiled.
+      pipeline: "voxel" or "mujoco" (`Physics.pipeline`).
+      spec: the `mujoco.MjSpec` the model was compiled from (`to_xml` writes it).
+      model: the `mujoco.MjModel` that `simulate` runs.
+      voxel_index: ``(n_voxels, dim)`` int grid indices, in body order.
+      body_ids: ``(n_voxels,)`` int MuJoCo body ids of the voxels.
+      masses: ``(n_voxels,)`` float, kg.
+      muscles: the "mujoco" pipeline's driven tendons (`Simulation` rewrites their rest
+        lengths), or None (no muscles, or the voxel plugin drives them).
+      n_bonds: number of face bonds.
+      bonds: every bond tendon as arrays (`BondTable`).
+      beams: every bond as one beam element (`BeamTable`).
+    """
+
+    robot: Robot
+    physics: Physics
+    pipeline: str
+    spec: mujoco.MjSpec
+    model: mujoco.MjModel
+    voxel_index: np.ndarray
+    body_ids: np.ndarray
+    masses: np.ndarray
+    muscles: MuscleTendons | None
+    n_bonds: int
+    bonds: BondTable
+    beams: BeamTable
+
+    @property
+    def timestep(self) -> float:
+        return float(self.model.opt.timestep)
+
+    @property
+    def plugin_instance(self) -> int | None:
+        """The voxel plugin's instance id in `model`, or None (pure-MuJoCo pipeline)."""
+        return 0 if self.pipeline == "voxel" else None
+
+    def to_xml(self) -> str:
+        """MJCF of exactly `model`. With the "voxel" pipeline, loading it needs the plugin
+        library: ``mujoco.mj_loadPluginLibrary(str(mjregen.plugin_library()))``."""
+        return self.spec.to_xml()
+
+
+def compile_robot(
+    robot: Robot,
+    *,
+    physics: Physics | None = None,
+    clamped: Iterable[Sequence[int]] = (),
+    elevation: float = 0.0,
+    drive: str = "waveform",
+) -> CompiledRobot:
+    """Build the MuJoCo model of `robot`.
+
+    Args:
+      robot: a non-empty `Robot` (2D or 3D).
+      physics: materials, scene and pipeline; None = the paper's (`Physics()`).
+      clamped: grid indices of voxels fixed to the world (no joint), e.g. a cantilever's root.
+      elevation: m, height of the lowest voxel's bottom face above the floor (>= 0).
+      drive: "waveform" (the muscles follow the scene's waveform from the end of the
+        settle) or "ctrl" (voxel pipeline: the strains (e₊, e₋) of the two muscle phases
+        are the controls of the actuators ``muscle_plus`` and ``muscle_minus``, which apply
+        no force themselves).
+    Raises:
+      CompileError: empty robot, a clamped index that is not a voxel, negative elevation.
+      PhysicsParameterError: the robot's materials have different Poisson ratios; the
+        network time step without the plugin library.
+      NativeBuildError: the voxel pipeline, and the plugin library cannot be built.
+    """
+    physics = Physics() if physics is None else physics
+    if not isinstance(robot, Robot):
+        raise CompileError(f"compile_robot needs a Robot, got {type(robot).__name__}")
+    if robot.is_empty:
+        raise CompileError("cannot compile an empty robot (it has no voxels)")
+    if not (math.isfinite(elevation) and elevation >= 0.0):
+        raise CompileError(f"elevation must be a finite height >= 0 m, got {elevation!r}")
+    if drive not in mjcf.DRIVES:
+        raise CompileError(f"drive must be one of {mjcf.DRIVES}, got {drive!r}")
+    pipeline = physics.pipeline.name
+    if drive == "ctrl" and pipeline != "voxel":
+        raise CompileError("drive 'ctrl' needs the voxel pipeline")
+    layout = robot_layout(robot, physics, {tuple(int(i) for i in c) for c in clamped},
+                          elevation)
+    table, beams, muscles, max_k_per_m = bond_tables(layout, physics)
+    if pipeline == "voxel":
+        native.library()  # registers the plugin with MuJoCo
+    spec, bodies = mjcf.voxel_bodies(layout, physics)
+    if pipeline == "voxel":
+        mjcf.add_voxel_plugin(spec, layout, physics, table, beams, drive)
+    else:
+        mjcf.add_mujoco_bonds(spec, bodies, layout, physics, table)
+    spec.option.timestep = round_like_mjcf(timestep.stiffest_bond_step(physics, max_k_per_m))
+    model = spec.compile()
+    if physics.pipeline.timestep_rule == "network" and layout.bonds:
+        spec.option.timestep = round_like_mjcf(
+            _network_step(model, layout, physics, table, beams))
+        model.opt.timestep = spec.option.timestep
+    body_ids = np.array([model.body(body.name).id for body in bodies])
+    return CompiledRobot(
+        robot=robot, physics=physics, pipeline=pipeline, spec=spec, model=model,
+        voxel_index=layout.grid_index, body_ids=body_ids, masses=layout.masses,
+        muscles=muscles if pipeline == "mujoco" else None, n_bonds=len(layout.bonds),
+        bonds=table, beams=beams)
+
+
+def _network_step(model: mujoco.MjModel, layout: RobotLayout, physics: Physics,
+                  table: BondTable, beams: BeamTable) -> float:
+    """s: the network rule's step (`mjregen.physics.timestep`). The pure-MuJoCo pipeline's
+    network is measured on the same robot's plugin model with its tendons, floor off (its
+    contacts are not the engine floor)."""
+    scene, pipeline = physics.scene, physics.pipeline
+    if pipeline.name != "voxel":
+        if not native.available():
+            raise PhysicsParameterError(
+                "timestep_rule 'network' computes the step from the voxel plugin's bond "
+                "forces, whose library needs a C compiler; use timestep_rule 'stiffest_bond' "
+                "(sphere_physics() and legacy_physics() do)")
+        physics = physics.replace(pipeline=VoxelPipeline(
+            bond_element="tendons", bond_model=pipeline.bond_model, collision_radius=0.0),
+            floor=False)
+        spec, _ = mjcf.voxel_bodies(layout, physics)
+        mjcf.add_voxel_plugin(spec, layout, physics, table, beams, "waveform")
+        model = spec.compile()
+    floor_k = floor_c = None
+    if scene.floor and pipeline.name == "voxel":
+        L = scene.voxel_size
+        EL = np.array([physics.materials[m].youngs_modulus * L for _, m in layout.voxels])
+        voxel_bodies = np.array([model.body(voxel_name(index)).id
+                                 for index, _ in layout.voxels])
+        floor_k, floor_c = timestep.engine_floor_rates(
+            model, voxel_bodies, dim=layout.dim, stiffness=pipeline.floor_stiffness * EL,
+            damping=pipeline.floor_damping * 2.0 * np.sqrt(layout.masses * EL),
+            masses=layout.masses)
+    stiffness, damping = timestep.network_rates(model, voxel_size=scene.voxel_size,
+                                                floor_stiffness=floor_k, floor_damping=floor_c)
+    stiffening = timestep.strain_stiffening(beams, scene)
+    return scene.timestep_safety * timestep.stable_step(stiffening * stiffness,
+                                                        stiffening * damping)

@@ -1,0 +1,55 @@
+"""Named physics: the paper engine's (the default) and two pure-MuJoCo models."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+from mjregen.physics.params import (
+    MujocoPipeline,
+    Physics,
+    Scene,
+    VoxelPipeline,
+    paper_materials,
+)
+
+
+def paper_physics() -> Physics:
+    """The paper's engine (Voxelyze, evosoro build) as closely as MuJoCo allows: the voxel
+    pipeline with its defaults, `Physics()`.
+
+    Measured on its reference cases (docs/fidelity.md):
+    - floor: the engine's own: a penalty spring 2·E·L and damper 0.8·2 sqrt(m E L) on each
+      voxel's centre below its current half size, static friction 1.0 with a stick state,
+      kinetic friction 0.5;
+    - bonds: shear-rigid beams ("euler_bernoulli"), the engine's beam element (transverse
+      stiffness E·L = 12EI/L³); with Timoshenko bonds the multiped's legs sag and it walks a
+      fifth as far; one beam element per bond (as close to the engine as the tendon bundle,
+      half the CPU time);
+    - self-collision, spheres of radius 0.625 L (the engine's collision envelope);
+    - bond damping ratio 0.4: the engine damps half the relative velocity of a bond
+      (ζ = 1 there ≈ 0.5 here); 0.4 reproduces the 3×3×3 block's rebound (restitution 0.35);
+    - the engine's "slow" drag, ζ = 0.001.
+    """
+    materials = {m: replace(p, friction=1.0, kinetic_friction=0.5)
+                 for m, p in paper_materials().items()}
+    return Physics(materials=materials, scene=Scene(bond_damping_ratio=0.4, drag_ratio=0.001),
+                   pipeline=VoxelPipeline())
+
+
+def sphere_physics() -> Physics:
+    """Pure MuJoCo, no C compiler: sphere contacts (one per voxel, spring 2·E·L, damping
+    1.2 because MuJoCo's contact cannot pull), friction 1.0, Timoshenko tendon bonds, ζ 0.4,
+    drag 0.001, no self-collision, the stiffest-bond time step (docs/fidelity.md: 0.28–0.64
+    of the engine's distances)."""
+    materials = {m: replace(p, friction=1.0) for m, p in paper_materials().items()}
+    return Physics(materials=materials, scene=Scene(bond_damping_ratio=0.4, drag_ratio=0.001),
+                   pipeline=MujocoPipeline(contact_shape="sphere", contact_stiffness=2.0,
+                                           contact_damping=1.2))
+
+
+def legacy_physics() -> Physics:
+    """Pure MuJoCo with box contacts of solref (0.3 ms, 1), friction 0.5, bond damping ratio
+    1, no drag, no self-collision, Timoshenko tendon bonds, the stiffest-bond time step."""
+    materials = {m: replace(p, friction=0.5) for m, p in paper_materials().items()}
+    return Physics(materials=materials, scene=Scene(bond_damping_ratio=1.0, drag_ratio=0.0),
+                   pipeline=MujocoPipeline(contact_shape="box", contact_stiffness=None))
