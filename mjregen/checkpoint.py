@@ -25,7 +25,7 @@ def save_nca(
     """Write `nca` (and JSON-serialisable `metadata`) to `path` (``.npz``) atomically.
 
     Raises:
-      FileExistsError: `path` exists and `overwrite` is False.
+      OutputExistsError: `path` exists and `overwrite` is False.
       CheckpointError: `path` does not end in ``.npz`` or `metadata` is not JSON.
     """
     path = Path(path)

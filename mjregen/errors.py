@@ -27,3 +27,15 @@ class PhysicsParameterError(MjregenError, ValueError):
 
 class CompileError(MjregenError, ValueError):
     """A robot cannot be compiled with the given options (e.g. empty, bad clamp index)."""
+
+
+class OutputExistsError(MjregenError, FileExistsError):
+    """An output file or folder exists and the caller did not ask to replace it.
+
+    Attributes:
+      path: the existing path.
+    """
+
+    def __init__(self, path: object, what: str = "replace it") -> None:
+        self.path = str(path)
+        super().__init__(f"{path} exists; pass overwrite=True to {what}")

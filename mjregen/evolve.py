@@ -51,6 +51,30 @@ class GAConfig:
         """A copy with the given fields replaced (None values are ignored)."""
         return replace(self, **{k: v for k, v in overrides.items() if v is not None})
 
+    def scaled(self, population: int) -> GAConfig:
+        """This GA at another population: truncation and elites keep their share of the
+        population (at least 1 when this one has any); the other fields unchanged.
+
+        Raises:
+          ValueError: `population` is not a positive integer.
+        """
+        if isinstance(population, bool) or not isinstance(population, (int, np.integer)) \
+                or population < 1:
+            raise ValueError(f"GA population must be a positive integer, got {population!r}")
+
+        def share(count: int) -> int:
+            if count == 0:
+                return 0
+            return min(population, max(1, round(population * count / self.population)))
+
+        return replace(self, population=int(population), truncation=share(self.truncation),
+                       elites=share(self.elites))
+
+    def summary(self) -> str:
+        """One line: "pop 100, gens 300, truncation 20, elites 20, sigma 0.1"."""
+        return (f"pop {self.population}, gens {self.generations}, truncation "
+                f"{self.truncation}, elites {self.elites}, sigma {self.sigma:g}")
+
 
 # The paper's settings (its code; "3d-paper-text" has the sigma its text and README state).
 PRESETS: dict[str, GAConfig] = {

@@ -135,15 +135,8 @@ SCALES: dict[str, Scale] = {
 
 
 def scaled_ga(preset: GAConfig, population: int, generations: int) -> GAConfig:
-    """`preset` at another population and length: truncation and elites keep their share of
-    the population (at least 1 when the preset has any); sigma and init_std unchanged."""
-    def share(count: int) -> int:
-        if count == 0:
-            return 0
-        return min(population, max(1, round(population * count / preset.population)))
-
-    return preset.with_overrides(population=population, generations=generations,
-                                 truncation=share(preset.truncation), elites=share(preset.elites))
+    """`preset` at another population (`GAConfig.scaled`) and length."""
+    return preset.scaled(population).with_overrides(generations=generations)
 
 
 def scale_of(config: dict) -> str:

@@ -28,7 +28,7 @@ def growth_figure(states: np.ndarray, path: str | os.PathLike, *, overwrite: boo
       InvalidGridError: a state is not a valid grid.
       ValueError: `path` is not ``.png``, `states` has the wrong number of dimensions, or
         `titles` the wrong length.
-      FileExistsError: `path` exists and not `overwrite`.
+      OutputExistsError: `path` exists and not `overwrite`.
     """
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure

@@ -8,6 +8,8 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import IO, Iterator
 
+from mjregen.errors import OutputExistsError
+
 
 @contextmanager
 def atomic_open(path: str | os.PathLike, mode: str = "wb", *, overwrite: bool = True) -> Iterator[IO]:
@@ -15,13 +17,18 @@ def atomic_open(path: str | os.PathLike, mode: str = "wb", *, overwrite: bool = 
     removed and `path` is untouched.
 
     Raises:
-      FileExistsError: `path` exists and `overwrite` is False.
+      OutputExistsError: `path` exists and `overwrite` is False.
+      OSError: `path` cannot be written (the message names `path`).
     """
     path = Path(path)
     if path.exists() and not overwrite:
-        raise FileExistsError(f"{path} exists; pass overwrite=True to replace it")
-    path.parent.mkdir(parents=True, exist_ok=True)
-    handle = tempfile.NamedTemporaryFile(mode, dir=path.parent, prefix=f".{path.name}.", delete=False)
+        raise OutputExistsError(path)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        handle = tempfile.NamedTemporaryFile(mode, dir=path.parent, prefix=f".{path.name}.",
+                                             delete=False)
+    except OSError as error:
+        raise type(error)(error.errno, f"cannot write {path}: {error.strerror}") from None
     try:
         with handle:
             yield handle

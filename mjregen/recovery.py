@@ -28,6 +28,7 @@ from mjregen.regen import (
 )
 
 ROLES = ("original", "damaged", "regrown")
+MEANINGFUL_DISTANCE = 0.01  # voxel lengths: a walk shorter than this is no reference
 
 
 @dataclass(frozen=True)
@@ -53,9 +54,12 @@ class RecoveryReport:
     duration: float
 
     def percent_of_original(self, role: str) -> float:
-        """`role`'s distance as a percentage of the original's (NaN if that is 0)."""
+        """`role`'s distance as a percentage of the original's (NaN when the original did
+        not walk: below MEANINGFUL_DISTANCE, or unstable)."""
         original = self.distance["original"]
-        return 100.0 * self.distance[role] / original if original > 0 else float("nan")
+        if not original >= MEANINGFUL_DISTANCE:  # NaN too
+            return float("nan")
+        return 100.0 * self.distance[role] / original
 
     def to_dict(self) -> dict:
         """JSON-ready values (NaN, e.g. the distance of an unstable run, becomes None)."""
@@ -64,6 +68,11 @@ class RecoveryReport:
         for key in ("distance", "percent_of_original"):
             values[key] = {r: None if np.isnan(v) else v for r, v in values[key].items()}
         return values
+
+    def _percent(self, role: str) -> str:
+        """"62 %" or "n/a" (a percentage of a distance that is not one)."""
+        percent = self.percent_of_original(role)
+        return "n/a" if np.isnan(percent) else f"{percent:.0f} %"
 
     def to_markdown(self, name: str = "robot") -> str:
         """A Markdown table in the layout of the paper's Table 1."""
@@ -78,8 +87,8 @@ class RecoveryReport:
             f"{100 * self.robot_similarity['regrown']:.1f} % | "
             f"{self.voxels['original']} / {self.voxels['damaged']} / {self.voxels['regrown']} | "
             f"{self.distance['original']:.2f}{flag('original')} | "
-            f"{self.distance['damaged']:.2f} ({self.percent_of_original('damaged'):.0f} %){flag('damaged')} | "
-            f"{self.distance['regrown']:.2f} ({self.percent_of_original('regrown'):.0f} %){flag('regrown')} |"),
+            f"{self.distance['damaged']:.2f} ({self._percent('damaged')}){flag('damaged')} | "
+            f"{self.distance['regrown']:.2f} ({self._percent('regrown')}){flag('regrown')} |"),
             "",
             f"Distances in voxel lengths over {self.duration:g} s of walking.",
         ])

@@ -38,7 +38,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from tqdm import tqdm
 
-from mjregen.errors import MjregenError
+from mjregen.errors import MjregenError, OutputExistsError
 from mjregen.figures import MATERIAL_RGBA
 from mjregen.fileio import atomic_open
 from mjregen.grid import Material
@@ -410,7 +410,7 @@ def write_video(compiled: CompiledRobot, qpos: np.ndarray, path: str | os.PathLi
       progress: show a tqdm bar.
       backend: OpenGL backend; None = `select_gl_backend()`.
     Raises:
-      FileExistsError: `path` exists and not `overwrite`.
+      OutputExistsError: `path` exists and not `overwrite`.
       VideoError: `path` is not ``.mp4``, no frames, or no ffmpeg.
     """
     import mediapy
@@ -422,7 +422,7 @@ def write_video(compiled: CompiledRobot, qpos: np.ndarray, path: str | os.PathLi
     if qpos.ndim != 2 or len(qpos) == 0:
         raise VideoError(f"qpos must be (frames, nq) with at least one frame, got {qpos.shape}")
     if path.exists() and not overwrite:
-        raise FileExistsError(f"{path} exists; pass overwrite=True to replace it")
+        raise OutputExistsError(path)
     ffmpeg = find_ffmpeg()
     _log.info("writing %s with %s", path, ffmpeg)
     mediapy.set_ffmpeg(ffmpeg)
@@ -439,6 +439,30 @@ def write_video(compiled: CompiledRobot, qpos: np.ndarray, path: str | os.PathLi
     return path
 
 
+def read_video(path: str | os.PathLike) -> np.ndarray:
+    """The frames of a video file, ``(frames, height, width, 3)`` uint8 RGB, decoded by
+    imageio-ffmpeg's own ffmpeg (mediapy's reader needs a system ffmpeg that accepts its
+    flags).
+
+    Raises:
+      VideoError: the file is missing or ffmpeg cannot decode it.
+    """
+    import imageio_ffmpeg
+
+    path = Path(path)
+    if not path.is_file():
+        raise VideoError(f"{path}: no such video file")
+    try:
+        reader = imageio_ffmpeg.read_frames(str(path), pix_fmt="rgb24")
+        width, height = next(reader)["size"]
+        frames = [np.frombuffer(frame, dtype=np.uint8).reshape(height, width, 3)
+                  for frame in reader]
+    except (RuntimeError, OSError, StopIteration, ValueError) as error:
+        last = str(error).strip().splitlines()[-1] if str(error).strip() else type(error).__name__
+        raise VideoError(f"{path}: cannot decode the video ({last})") from None
+    return np.stack(frames) if frames else np.zeros((0, height, width, 3), dtype=np.uint8)
+
+
 def write_frames(compiled: CompiledRobot, qpos: np.ndarray, folder: str | os.PathLike, *,
                  view: View = View(), overwrite: bool = False, progress: bool = True,
                  backend: str | None = None) -> list[Path]:
@@ -447,7 +471,7 @@ def write_frames(compiled: CompiledRobot, qpos: np.ndarray, folder: str | os.Pat
     Args:
       qpos: ``(F, nq)`` states or ``(nq,)`` for one image.
     Raises:
-      FileExistsError: a frame file exists and not `overwrite` (nothing is written then).
+      OutputExistsError: a frame file exists and not `overwrite` (nothing is written then).
     """
     from PIL import Image
 
@@ -456,7 +480,7 @@ def write_frames(compiled: CompiledRobot, qpos: np.ndarray, folder: str | os.Pat
     paths = [folder / f"frame_{i:05d}.png" for i in range(len(qpos))]
     existing = [p for p in paths if p.exists()]
     if existing and not overwrite:
-        raise FileExistsError(f"{existing[0]} exists; pass overwrite=True to replace frames")
+        raise OutputExistsError(existing[0], "replace frames")
     with RobotRenderer(compiled, view=view, backend=backend) as renderer:
         for state, frame in tqdm(list(zip(qpos, paths)), desc="rendering", unit="frame",
                                  disable=not progress):

@@ -96,3 +96,22 @@ def test_misuse_raises():
     for bad in [dict(population=0), dict(elites=11), dict(truncation=11), dict(sigma=-1.0), dict(sigma=float("nan"))]:
         with pytest.raises(ValueError):
             GAConfig(10, 1, 2, 1, 0.1).with_overrides(**bad)
+
+
+def test_presets_keep_their_shares_at_another_population():
+    assert PRESETS["2d"].scaled(50) == GAConfig(50, 500, 10, 1, 0.03)  # 60/300, the one elite
+    assert PRESETS["3d"].scaled(30) == GAConfig(30, 300, 6, 6, 0.1)
+    assert PRESETS["3d"].scaled(2).truncation == 1
+    with pytest.raises(ValueError, match="positive integer"):
+        PRESETS["3d"].scaled(0)
+
+
+def test_cli_population_scales_the_preset_and_explicit_numbers_win():
+    from mjregen.cli import build_parser
+    from mjregen.cli.common import ga_config
+
+    parse = build_parser().parse_args
+    ga = ga_config(parse(["evolve", "--dim", "2", "--pop", "50", "--out", "x"]), "2d")
+    assert (ga.population, ga.truncation, ga.elites) == (50, 10, 1)
+    ga = ga_config(parse(["evolve", "--pop", "50", "--truncation", "7", "--out", "x"]), "3d")
+    assert (ga.population, ga.truncation, ga.elites) == (50, 7, 10)

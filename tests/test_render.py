@@ -19,6 +19,7 @@ from mjregen.render import (
     GLBackendError,
     RobotRenderer,
     VideoError,
+    read_video,
     View,
     find_ffmpeg,
     record_walk,
@@ -55,14 +56,6 @@ def material_of_pixels(image: np.ndarray) -> dict[Material, int]:
     chroma = coloured / np.maximum(coloured.sum(axis=1, keepdims=True), 1e-9)
     nearest = np.argmin(((chroma[:, None] - reference[None]) ** 2).sum(axis=2), axis=1)
     return dict(zip(materials, np.bincount(nearest, minlength=len(materials)).tolist()))
-
-
-def decode(path: Path) -> np.ndarray:
-    """All frames ``(F, H, W, 3)`` uint8 of a video, decoded by imageio-ffmpeg's ffmpeg
-    (mediapy 1.2.7's reader passes -vsync, which ffmpeg 9 no longer accepts)."""
-    reader = imageio_ffmpeg.read_frames(str(path))
-    width, height = next(reader)["size"]
-    return np.stack([np.frombuffer(f, np.uint8).reshape(height, width, 3) for f in reader])
 
 
 def robot_pixels(image: np.ndarray) -> np.ndarray:
@@ -195,10 +188,17 @@ def test_video_has_the_frames_and_is_not_overwritten(backend, tmp_path):
     walk = record_walk(compiled, duration=0.05, fps=10, slowdown=5)
     path = write_video(compiled, walk.qpos, tmp_path / "walk.mp4", fps=10, view=SMALL,
                        progress=False, backend=backend)
-    frames = decode(path)
+    frames = read_video(path)  # the reader a user gets (mediapy's fails on ffmpeg 9)
     assert frames.shape == (len(walk.qpos), 120, 160, 3)
     assert np.abs(frames[0].astype(int) - frames[-1].astype(int)).mean() > 0.5
     assert [p.name for p in tmp_path.iterdir()] == ["walk.mp4"]  # no partial file left
+    junk = tmp_path / "junk.mp4"
+    junk.write_bytes(b"x" * 99)
+    with pytest.raises(VideoError, match="cannot decode"):
+        read_video(junk)
+    junk.unlink()
+    with pytest.raises(VideoError, match="no such video"):
+        read_video(junk)
     with pytest.raises(FileExistsError, match="walk.mp4 exists"):
         write_video(compiled, walk.qpos, path, view=SMALL, backend=backend)
     with pytest.raises(VideoError, match=".mp4"):

@@ -12,7 +12,7 @@ from typing import Callable, Sequence
 
 from mjregen import __version__
 from mjregen.cli import evolution, regeneration, robots
-from mjregen.errors import MjregenError
+from mjregen.errors import MjregenError, OutputExistsError
 
 Handler = Callable[[argparse.Namespace], int]
 COMMANDS = (robots.add_grow, robots.add_show, robots.add_walk, robots.add_export, robots.add_render,
@@ -37,6 +37,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     handler: Handler = args.handler
     try:
         return handler(args)
+    except OutputExistsError as error:
+        print(f"mjregen: error: {error.path} exists; pass --force to replace it",
+              file=sys.stderr)
+        return 1
     except (MjregenError, OSError) as error:
         print(f"mjregen: error: {error}", file=sys.stderr)
         return 1

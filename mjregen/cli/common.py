@@ -17,8 +17,11 @@ def material_counts(robot: Robot) -> dict[str, int]:
 
 def add_ga_arguments(parser: argparse.ArgumentParser, *, preset_help: str) -> None:
     """--preset and the GA numbers that override it."""
-    parser.add_argument("--preset", choices=sorted(PRESETS), help=preset_help)
-    parser.add_argument("--pop", type=int, help="population size")
+    values = "; ".join(f"{name}: {config.summary()}" for name, config in sorted(PRESETS.items()))
+    parser.add_argument("--preset", choices=sorted(PRESETS), help=f"{preset_help} ({values})")
+    parser.add_argument("--pop", type=int,
+                        help="population size (the preset's truncation and elites keep their "
+                             "share of it unless given)")
     parser.add_argument("--gens", type=int, help="generations")
     parser.add_argument("--truncation", type=int, help="parents are drawn from the top T")
     parser.add_argument("--elites", type=int, help="individuals kept unchanged")
@@ -28,9 +31,11 @@ def add_ga_arguments(parser: argparse.ArgumentParser, *, preset_help: str) -> No
 def ga_config(args: argparse.Namespace, default_preset: str) -> GAConfig:
     """The preset named by --preset (else `default_preset`) with the given numbers replaced."""
     try:
-        return PRESETS[args.preset or default_preset].with_overrides(
-            population=args.pop, generations=args.gens, truncation=args.truncation,
-            elites=args.elites, sigma=args.sigma)
+        preset = PRESETS[args.preset or default_preset]
+        if args.pop is not None:
+            preset = preset.scaled(args.pop)
+        return preset.with_overrides(generations=args.gens, truncation=args.truncation,
+                                     elites=args.elites, sigma=args.sigma)
     except ValueError as error:
         raise MjregenError(str(error)) from None
 

@@ -27,7 +27,8 @@ def add_evolve(subparsers: argparse._SubParsersAction) -> None:
         "--resume continues a killed run exactly. Settings default to the paper's preset for "
         "--dim (2d or 3d); every number can be overridden.",
     )
-    parser.add_argument("--task", choices=("locomotion",), default="locomotion")
+    parser.add_argument("--task", choices=("locomotion",), default="locomotion",
+                        help="what the robots are scored on (the only task: locomotion)")
     parser.add_argument("--dim", type=int, choices=(2, 3), help="2D or 3D robots (default 3)")
     parser.add_argument("--net", choices=("ff", "lstm"), help="NCA network (default ff)")
     add_ga_arguments(parser, preset_help="GA preset (default: 2d or 3d by --dim)")
@@ -109,7 +110,7 @@ def add_evolve_stats(subparsers: argparse._SubParsersAction) -> None:
         "evolve-stats",
         help="mean best fitness with bootstrapped 95%% CIs over several runs",
         description="Plot the mean (over runs) of a metrics.csv column per generation, with a "
-        "bootstrapped 95%% confidence band, one curve per group. Example: "
+        "bootstrapped 95% confidence band, one curve per group. Example: "
         "mjregen evolve-stats --group ff runs/ff_* --group lstm runs/lstm_* --out curves.png",
     )
     parser.add_argument("--group", nargs="+", action="append", required=True,

@@ -38,7 +38,7 @@ def add_regen(subparsers: argparse._SubParsersAction) -> None:
                         "x below the grid centre)")
     parser.add_argument("--net", choices=("ff", "lstm"), help="regrowth NCA (default ff)")
     add_ga_arguments(parser, preset_help="GA preset (default: regen, the paper's)")
-    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--seed", type=int, default=0, help="seed of the GA (default 0)")
     add_physics_arguments(parser)
     add_run_folder_arguments(parser, resume_help="continue the run in --out (same arguments)")
     parser.add_argument("--no-video", action="store_true", help="skip the three videos")

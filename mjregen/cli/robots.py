@@ -14,7 +14,7 @@ from mjregen.cli.common import (
     material_counts,
     physics_from_args,
 )
-from mjregen.errors import MjregenError
+from mjregen.errors import MjregenError, OutputExistsError
 from mjregen.grid import Robot
 
 
@@ -123,8 +123,10 @@ def _walk(args: argparse.Namespace) -> int:
     from mjregen.physics.simulation import simulate
 
     robot = Robot.load(args.robot)
+    if robot.is_empty:
+        raise MjregenError(f"{args.robot} holds an empty robot: nothing to walk")
     if args.trajectory is not None and args.trajectory.exists() and not args.force:
-        raise FileExistsError(f"{args.trajectory} exists; pass --force to replace it")
+        raise OutputExistsError(args.trajectory)
     result = simulate(robot, physics=physics_from_args(args), duration=args.duration,
                       record=args.trajectory is not None)
     fitness = locomotion_fitness(result)
@@ -203,9 +205,10 @@ def add_render(subparsers: argparse._SubParsersAction) -> None:
     target.add_argument("--out", type=Path, help=".mp4 file to write")
     target.add_argument("--frames", type=Path, help="folder for PNG frames")
     add_physics_arguments(parser)
-    parser.add_argument("--width", type=int, default=480)
-    parser.add_argument("--height", type=int, default=360)
-    parser.add_argument("--fps", type=int, default=30)
+    parser.add_argument("--width", type=int, default=480, help="image width in pixels (default 480)")
+    parser.add_argument("--height", type=int, default=360,
+                        help="image height in pixels (default 360)")
+    parser.add_argument("--fps", type=int, default=30, help="video frames per second (default 30)")
     parser.add_argument("--slowdown", type=float, default=10.0, help="times slower than real time (default 10)")
     parser.add_argument("--force", action="store_true", help="overwrite existing files")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
