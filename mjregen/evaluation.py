@@ -61,6 +61,7 @@ class PopulationEvaluation:
       stable: bool; False for unstable or failed simulations (all True without physics).
       failed: bool; True when the evaluation raised or its worker died, twice.
       errors: one line per failed distinct robot.
+      tracebacks: the tracebacks of `errors`, in the same order.
       n_distinct: distinct robots in the population.
       sim_cpu_time: s of simulation CPU time summed over workers.
     """
@@ -71,6 +72,7 @@ class PopulationEvaluation:
     stable: np.ndarray | None = None
     failed: np.ndarray | None = None
     errors: list[str] = field(default_factory=list)
+    tracebacks: list[str] = field(default_factory=list)
     n_distinct: int = 0
     sim_cpu_time: float = 0.0
 

@@ -74,7 +74,7 @@ class LocomotionTask:
         distance = np.zeros(n)
         stable = np.ones(n, dtype=bool)
         failed = np.zeros(n, dtype=bool)
-        errors, cpu = [], 0.0
+        errors, tracebacks, cpu = [], [], 0.0
         for d, result in cached.items():
             fitness[d], distance[d], stable[d] = result.fitness, result.distance, result.stable
         for d, outcome in zip(to_simulate, outcomes):
@@ -85,9 +85,11 @@ class LocomotionTask:
             else:
                 fitness[d], distance[d], stable[d], failed[d] = UNSTABLE_FITNESS[dim], np.nan, False, True
                 errors.append(f"robot {d} (individual {firsts[d]}): {outcome.error}")
+                tracebacks.append(outcome.trace)
         return PopulationEvaluation(
             fitness=fitness[owner], grids=grids,
             details={"distance": distance[owner], "voxels": n_voxels},
-            stable=stable[owner], failed=failed[owner], errors=errors, n_distinct=n,
+            stable=stable[owner], failed=failed[owner], errors=errors, tracebacks=tracebacks,
+            n_distinct=n,
             sim_cpu_time=cpu,
         )

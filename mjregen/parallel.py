@@ -10,8 +10,13 @@ a value, and the other items are unaffected.
 from __future__ import annotations
 
 import concurrent.futures as futures
+import ctypes
 import multiprocessing
 import os
+import signal
+import sys
+import threading
+import time
 import traceback
 from dataclasses import dataclass
 from typing import Any, Callable, Generic, Sequence, TypeVar
@@ -24,11 +29,13 @@ MAX_ATTEMPTS = 2  # the first try and one retry
 
 @dataclass(frozen=True)
 class Outcome(Generic[R]):
-    """Result of one item: `value` when it succeeded, else `error` (a one-line reason)."""
+    """Result of one item: `value` when it succeeded, else `error` (a one-line reason) and
+    `trace` (its traceback, the worker's included where the backend sends it)."""
 
     value: R | None
     error: str | None
     attempts: int
+    trace: str = ""
 
     @property
     def ok(self) -> bool:
@@ -38,6 +45,13 @@ class Outcome(Generic[R]):
 def _describe(error: BaseException) -> str:
     last = traceback.format_exception_only(type(error), error)[-1].strip()
     return last.replace("\n", " ")
+
+
+def _failed(error: BaseException, attempts: int, prefix: str = "") -> Outcome:
+    """The Outcome of an item whose last attempt raised `error`."""
+    reason = _describe(error)
+    return Outcome(None, f"{prefix}({reason})" if prefix else reason, attempts,
+                   "".join(traceback.format_exception(error)))
 
 
 class Backend:
@@ -72,15 +86,15 @@ class SerialBackend(Backend):
     def map(self, fn: Callable[[T], R], items: Sequence[T]) -> list[Outcome[R]]:
         outcomes = []
         for item in items:
-            error = None
+            error: BaseException | None = None
             for attempt in range(1, MAX_ATTEMPTS + 1):
                 try:
                     outcomes.append(Outcome(fn(item), None, attempt))
                     break
                 except Exception as exc:  # noqa: BLE001 - contained and reported per item
-                    error = _describe(exc)
+                    error = exc
             else:
-                outcomes.append(Outcome(None, error, MAX_ATTEMPTS))
+                outcomes.append(_failed(error, MAX_ATTEMPTS))
         return outcomes
 
 
@@ -116,9 +130,9 @@ class _ExecutorBackend(Backend):
                 results[index] = Outcome(self._pool.submit(fn, items[index]).result(), None, MAX_ATTEMPTS)
             except futures.process.BrokenProcessPool as exc:
                 self._restart()
-                results[index] = Outcome(None, f"worker process died ({_describe(exc)})", MAX_ATTEMPTS)
+                results[index] = _failed(exc, MAX_ATTEMPTS, prefix="worker process died ")
             except Exception as exc:  # noqa: BLE001 - contained and reported per item
-                results[index] = Outcome(None, _describe(exc), MAX_ATTEMPTS)
+                results[index] = _failed(exc, MAX_ATTEMPTS)
         return [results[i] for i in range(len(items))]
 
     def _restart(self) -> None:
@@ -136,8 +150,29 @@ class ProcessBackend(_ExecutorBackend):
 
     def _make_pool(self) -> futures.Executor:
         return futures.ProcessPoolExecutor(
-            max_workers=self.workers, mp_context=multiprocessing.get_context("spawn")
+            max_workers=self.workers, mp_context=multiprocessing.get_context("spawn"),
+            initializer=_worker_init, initargs=(os.getpid(),),
         )
+
+
+def _worker_init(parent: int) -> None:
+    """In a worker process: leave Ctrl-C to the parent (it stops the run and says how to
+    resume), and exit when the parent dies (Linux: a death signal; elsewhere a watcher
+    thread that polls the parent's pid)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if sys.platform.startswith("linux"):
+        libc = ctypes.CDLL(None, use_errno=True)
+        PR_SET_PDEATHSIG = 1
+        libc.prctl(PR_SET_PDEATHSIG, signal.SIGTERM)
+    if os.getppid() != parent:  # it died before the death signal was armed
+        os._exit(1)
+    if not sys.platform.startswith("linux"):
+        def watch() -> None:
+            while os.getppid() == parent:
+                time.sleep(1.0)
+            os._exit(1)
+
+        threading.Thread(target=watch, daemon=True).start()
 
 
 class ThreadBackend(_ExecutorBackend):
@@ -177,7 +212,7 @@ class RayBackend(Backend):
         ray = self._ray
         remote = self._remote.setdefault(fn, ray.remote(num_cpus=1, max_retries=0)(fn))
         results: dict[int, Outcome[R]] = {}
-        errors: dict[int, str] = {}
+        errors: dict[int, BaseException] = {}
         pending = list(range(len(items)))
         for attempt in range(1, MAX_ATTEMPTS + 1):
             refs = {i: remote.remote(items[i]) for i in pending}
@@ -187,12 +222,12 @@ class RayBackend(Backend):
                     results[index] = Outcome(ray.get(ref), None, attempt)
                 except Exception as exc:  # noqa: BLE001 - task errors and dead workers alike
                     cause = getattr(exc, "cause", None)
-                    errors[index] = _describe(cause if isinstance(cause, BaseException) else exc)
+                    errors[index] = cause if isinstance(cause, BaseException) else exc
                     pending.append(index)
             if not pending:
                 break
         for index in pending:
-            results[index] = Outcome(None, errors[index], MAX_ATTEMPTS)
+            results[index] = _failed(errors[index], MAX_ATTEMPTS)
         return [results[i] for i in range(len(items))]
 
     def close(self) -> None:

@@ -6,17 +6,24 @@ The folder holds
   best/gen_NNNN.npz, best/gen_NNNN.npy   each generation's best genome (NCA checkpoint)
                   and its robot
   fitness.png     best and mean fitness per generation, redrawn every generation
-  checkpoint.npz  the GA state after the last finished generation, written atomically
+  checkpoint.npz  the GA state after the last finished generation, written atomically,
+                  with the hash of config.json (a resume refuses an edited config)
+  errors.log      the evaluations that failed: one line each and the first traceback of
+                  each generation (only when some failed)
 A killed run continues from `checkpoint.npz` with ``resume=True`` and produces exactly the
 results of an uninterrupted run: evaluation is deterministic and the GA's random state is
-restored. A folder holding a run is never overwritten without ``resume`` or ``force``.
+restored. A folder holding a run is never overwritten without ``resume`` or ``force``, and
+``force`` only ever deletes a folder that holds an mjregen run. A generation in which every
+evaluation failed stops the run (`RunFailedError`): its results would be meaningless.
 """
 
 from __future__ import annotations
 
 import csv
+import hashlib
 import json
 import shutil
+import sys
 import time
 import zipfile
 from dataclasses import dataclass
@@ -53,7 +60,48 @@ class Task(Protocol):
 
 
 class RunFolderError(MjregenError, ValueError):
-    """The output folder holds another run, or cannot be resumed."""
+    """The output folder holds another run, or cannot be resumed or replaced."""
+
+
+class RunFailedError(MjregenError, RuntimeError):
+    """Every evaluation of a generation failed (the first error is in the message)."""
+
+
+def _config_hash(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def _read_config(path: Path) -> dict:
+    """A run's config.json, or RunFolderError naming it."""
+    try:
+        config = json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
+        raise RunFolderError(f"{path} is not a readable run configuration: {error}") from None
+    if not isinstance(config, dict):
+        raise RunFolderError(f"{path} is not a run configuration (not a JSON object)")
+    return config
+
+
+def _is_run_folder(path: Path) -> bool:
+    """`path` holds an mjregen run: a config.json of this run format."""
+    try:
+        return json.loads((path / "config.json").read_text()).get("format") == RUN_FORMAT
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError, AttributeError):
+        return False
+
+
+def _check_deletable(out: Path) -> None:
+    """Raise RunFolderError unless `force` may delete `out`: an mjregen run folder that is
+    not the working directory, the home folder or one of their parents."""
+    resolved = out.resolve()
+    protected = {Path.cwd().resolve(), Path.home().resolve()}
+    if any(resolved == p or resolved in p.parents for p in protected):
+        raise RunFolderError(f"force never deletes {out} (the working directory, the home "
+                             "folder or a parent of one): choose another --out")
+    if not _is_run_folder(out):
+        raise RunFolderError(f"{out} is not empty and does not hold an mjregen run (no "
+                             f"config.json of format {RUN_FORMAT}): force only replaces run "
+                             "folders; choose another --out")
 
 
 @dataclass(frozen=True)
@@ -70,7 +118,8 @@ class RunSummary:
 def _checkpoint_save(path: Path, ga: GeneticAlgorithm, best: dict) -> None:
     state = ga.state_dict()
     population = state.pop("population")
-    state.update(best_fitness=best["best_fitness"], best_generation=best["best_generation"])
+    state.update(best_fitness=best["best_fitness"], best_generation=best["best_generation"],
+                 config_sha256=_config_hash(path.with_name("config.json")))
     with atomic_open(path) as handle:
         np.savez(handle, format=np.array(RUN_FORMAT), population=population,
                  best_genome=best["best_genome"], state=np.array(json.dumps(state)))
@@ -85,6 +134,11 @@ def _checkpoint_load(path: Path) -> tuple[GeneticAlgorithm, dict]:
             population, best_genome = archive["population"], archive["best_genome"]
     except (KeyError, ValueError, OSError, EOFError, zipfile.BadZipFile) as error:
         raise CheckpointError(f"cannot read run checkpoint {path}: {error}") from None
+    config_hash = state.pop("config_sha256", None)  # absent in older checkpoints
+    config_path = path.with_name("config.json")
+    if config_hash is not None and config_hash != _config_hash(config_path):
+        raise RunFolderError(f"{config_path} changed since the run wrote {path.name} (its hash "
+                             "differs): restore the file, or start a new run")
     best = {"best_fitness": state.pop("best_fitness"), "best_generation": state.pop("best_generation"),
             "best_genome": best_genome}
     return GeneticAlgorithm.from_state_dict({**state, "population": population}), best
@@ -98,7 +152,7 @@ def _prepare_folder(out: Path, config: dict, *, resume: bool, force: bool) -> bo
     if resume:
         if not config_path.is_file():
             raise RunFolderError(f"nothing to resume: {config_path} does not exist")
-        stored = json.loads(config_path.read_text())
+        stored = _read_config(config_path)
         differences = sorted(k for k in set(stored) | set(config)
                              if k not in ("created", "mjregen_version") and stored.get(k) != config.get(k))
         if differences:
@@ -110,11 +164,29 @@ def _prepare_folder(out: Path, config: dict, *, resume: bool, force: bool) -> bo
         if not force:
             raise RunFolderError(f"{out} is not empty; pass resume to continue the run in it "
                                  "or force to delete it and start again")
+        _check_deletable(out)
         shutil.rmtree(out)
     out.mkdir(parents=True, exist_ok=True)
     with atomic_open(config_path, "w") as handle:
         json.dump(config, handle, indent=2)
     return False
+
+
+def _log_failures(path: Path, generation: int, result: PopulationEvaluation, *,
+                  progress: bool) -> None:
+    """Append a generation's failed evaluations (one line each, the first traceback) to
+    `path`, and say so on screen."""
+    with path.open("a") as handle:
+        handle.write(f"generation {generation}: {len(result.errors)} failed\n")
+        handle.writelines(f"  {line}\n" for line in result.errors)
+        if result.tracebacks and result.tracebacks[0]:
+            handle.write(result.tracebacks[0] + "\n")
+    message = (f"generation {generation}: {len(result.errors)} evaluation(s) failed, e.g. "
+               f"{result.errors[0]} (see {path})")
+    if progress:
+        tqdm.write(message)
+    else:
+        print(message, file=sys.stderr)
 
 
 def _read_metrics(path: Path, generations: int) -> list[dict]:
@@ -164,11 +236,13 @@ def run_evolution(
       backend: where simulations run; results do not depend on it.
       task_config: JSON description of `task`, stored in config.json and compared on resume.
       resume: continue the run in `out` (its settings must equal these).
-      force: delete whatever is in `out` first.
+      force: delete the run in `out` first (only a run folder is ever deleted).
       progress: show a tqdm bar with the current best.
       on_generation: called with each generation's metrics row.
     Raises:
-      RunFolderError: `out` holds another run, or there is nothing to resume.
+      RunFolderError: `out` holds another run, there is nothing to resume, its config was
+        edited, or `force` is asked to delete a folder that is not a run folder.
+      RunFailedError: every evaluation of a generation failed.
     """
     out = Path(out)
     config = {
@@ -192,6 +266,13 @@ def run_evolution(
         generation = ga.generation
         population = ga.ask()
         result = task.evaluate(population, backend)
+        if result.errors:
+            _log_failures(out / "errors.log", generation, result, progress=progress)
+        if np.all(result.failed):
+            raise RunFailedError(
+                f"every evaluation of generation {generation} failed, e.g. {result.errors[0]} "
+                f"(tracebacks in {out / 'errors.log'}); the run stops, its checkpoint holds "
+                "the last good generation")
         ranking = ga.tell(result.fitness)
         top = int(ranking[0])
         if result.fitness[top] > best["best_fitness"]:

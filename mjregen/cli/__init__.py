@@ -7,6 +7,7 @@ Errors a user can cause (missing file, bad grid, bad checkpoint) print one line
 from __future__ import annotations
 
 import argparse
+import shlex
 import sys
 from typing import Callable, Sequence
 
@@ -33,10 +34,14 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    words = list(sys.argv[1:] if argv is None else argv)
+    args = build_parser().parse_args(words)
     handler: Handler = args.handler
     try:
         return handler(args)
+    except KeyboardInterrupt:
+        print(_interrupted(args, words), file=sys.stderr)
+        return 130
     except OutputExistsError as error:
         print(f"mjregen: error: {error.path} exists; pass --force to replace it",
               file=sys.stderr)
@@ -44,3 +49,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     except (MjregenError, OSError) as error:
         print(f"mjregen: error: {error}", file=sys.stderr)
         return 1
+
+
+def _interrupted(args: argparse.Namespace, words: list[str]) -> str:
+    """What to say after Ctrl-C: for a run folder, that its checkpoint is intact (it is
+    written atomically after each generation) and the command that continues it."""
+    if not getattr(args, "resumable", False):
+        return "mjregen: interrupted"
+    resume = [w for w in words if w != "--force"] + ([] if "--resume" in words else ["--resume"])
+    return (f"mjregen: interrupted; the checkpoint in {args.out} is intact. Continue with: "
+            f"mjregen {shlex.join(resume)}")

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 from pathlib import Path
 
 from mjregen.errors import MjregenError
@@ -47,6 +48,7 @@ def add_run_folder_arguments(parser: argparse.ArgumentParser, *, resume_help: st
     folder.add_argument("--resume", action="store_true", help=resume_help)
     folder.add_argument("--force", action="store_true", help="delete --out first")
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
+    parser.set_defaults(resumable=True)
 
 
 PHYSICS = ("default", "paper", "sphere", "legacy")
@@ -81,7 +83,8 @@ def add_physics_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def physics_from_args(args: argparse.Namespace):
-    """The `Physics` that --physics, --bonds, --timestep-rule and --settle describe."""
+    """The `Physics` that --physics, --bonds, --timestep-rule and --settle describe, with
+    --duration checked too (before any work starts)."""
     from mjregen.physics import Physics, legacy_physics, paper_physics, sphere_physics
 
     presets = {"paper": paper_physics, "sphere": sphere_physics, "legacy": legacy_physics}
@@ -93,4 +96,12 @@ def physics_from_args(args: argparse.Namespace):
         physics = physics.replace(bond_element=args.bonds)
     if args.timestep_rule is not None:
         physics = physics.replace(timestep_rule=args.timestep_rule)
-    return physics if args.settle is None else physics.replace(settle_time=args.settle)
+    duration = getattr(args, "duration", None)
+    if duration is not None and not (math.isfinite(duration) and duration >= 0.0):
+        raise MjregenError(f"--duration must be a finite time >= 0 s, got {duration!r}")
+    if args.settle is None:
+        return physics
+    try:
+        return physics.replace(settle_time=args.settle)
+    except ValueError as error:
+        raise MjregenError(f"--settle: {error}") from None

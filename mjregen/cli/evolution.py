@@ -84,10 +84,14 @@ def _stored_run(args: argparse.Namespace) -> tuple:
     path = args.out / "config.json"
     if not path.is_file():
         raise MjregenError(f"nothing to resume: {path} does not exist")
-    stored = json.loads(path.read_text())
-    task = LocomotionTask(nca=NCAConfig.from_dict(stored["task"]["nca"]),
-                          physics=Physics.from_dict(stored["task"]["physics"]),
-                          duration=stored["task"]["duration"])
+    try:
+        stored = json.loads(path.read_text())
+        task = LocomotionTask(nca=NCAConfig.from_dict(stored["task"]["nca"]),
+                              physics=Physics.from_dict(stored["task"]["physics"]),
+                              duration=stored["task"]["duration"])
+    except (json.JSONDecodeError, UnicodeDecodeError, KeyError, TypeError) as error:
+        raise MjregenError(f"{path} is not a readable run configuration: "
+                           f"{type(error).__name__}: {error}") from None
     ga = GAConfig(**stored["ga"])
     given = {"dim": (args.dim, task.nca.dim), "net": (args.net, task.nca.kind),
              "pop": (args.pop, ga.population), "gens": (args.gens, ga.generations),

@@ -74,6 +74,7 @@ def _regen(args: argparse.Namespace) -> int:
     from mjregen.regen import RegrowthTask, cut_half_space, paper_cut
     from mjregen.runs import run_evolution
 
+    physics = physics_from_args(args)  # the walking settings, checked before the GA runs
     original, state, source = _original(args)
     damaged_state = paper_cut(state) if args.damage is None else cut_half_space(state, args.damage)
     config = NCAConfig(dim=original.dim, kind=args.net or "ff")
@@ -102,7 +103,6 @@ def _regen(args: argparse.Namespace) -> int:
                   titles=[f"regrowth step {i}" for i in range(len(regrowth.states[0]))])
     growth_figure(np.stack([robots[r].grid for r in robots]), args.out / "robots.png", overwrite=True,
                   titles=[f"{role}: {robot.n_voxels} voxels" for role, robot in robots.items()])
-    physics = physics_from_args(args)
     report = measure_recovery(robots, physics=physics, duration=args.duration)
     name = args.paper or Path(source).stem
     write_report(report, args.out, name=name)
