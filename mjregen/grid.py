@@ -248,7 +248,9 @@ class Robot:
         try:
             array = np.load(path, allow_pickle=False)
         except (ValueError, OSError, EOFError) as error:
-            raise GridFileError(f"{path} is not a valid .npy robot file: {error}") from None
+            reason = ("it is not a numeric array (numpy reads it as pickled objects, which "
+                      "mjregen never loads)" if "pickle" in str(error) else str(error))
+            raise GridFileError(f"{path} is not a valid .npy robot file: {reason}") from None
         if not isinstance(array, np.ndarray):
             raise GridFileError(f"{path} holds several arrays; a robot file holds one grid")
         try:

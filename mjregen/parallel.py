@@ -14,6 +14,7 @@ import ctypes
 import multiprocessing
 import os
 import signal
+import socket
 import sys
 import threading
 import time
@@ -21,10 +22,17 @@ import traceback
 from dataclasses import dataclass
 from typing import Any, Callable, Generic, Sequence, TypeVar
 
+from mjregen.errors import MjregenError
+
 T = TypeVar("T")
 R = TypeVar("R")
 
 MAX_ATTEMPTS = 2  # the first try and one retry
+RAY_CONNECT_TIMEOUT = 10.0  # s to reach a Ray cluster's address before giving up
+
+
+class BackendError(MjregenError, ValueError):
+    """A backend cannot be made: unknown name, bad worker count, Ray missing or unreachable."""
 
 
 @dataclass(frozen=True)
@@ -61,7 +69,7 @@ class Backend:
 
     def __init__(self, workers: int = 1) -> None:
         if workers < 1:
-            raise ValueError(f"workers must be at least 1, got {workers}")
+            raise BackendError(f"workers must be at least 1, got {workers}")
         self.workers = workers
 
     def map(self, fn: Callable[[T], R], items: Sequence[T]) -> list[Outcome[R]]:
@@ -194,9 +202,11 @@ class RayBackend(Backend):
         try:
             import ray
         except ImportError:
-            raise ImportError(
+            raise BackendError(
                 "the Ray backend needs Ray: pip install 'mjregen[ray]' (or pip install ray)"
             ) from None
+        if address is not None and address != "auto":
+            _check_reachable(address)
         self._ray = ray
         self._started_here = not ray.is_initialized()
         if self._started_here:
@@ -238,10 +248,31 @@ class RayBackend(Backend):
 BACKENDS = ("serial", "process", "thread", "ray")
 
 
+def _check_reachable(address: str) -> None:
+    """Raise BackendError unless a TCP connection to the Ray address (``[ray://]host:port``)
+    opens within RAY_CONNECT_TIMEOUT s (``ray.init`` itself can wait for minutes)."""
+    host, _, port = address.removeprefix("ray://").rpartition(":")
+    if not host or not port.isdigit():
+        raise BackendError(f"Ray address {address!r} is not [ray://]host:port or 'auto'")
+    try:
+        socket.create_connection((host, int(port)), timeout=RAY_CONNECT_TIMEOUT).close()
+    except OSError as error:
+        raise BackendError(f"cannot reach the Ray cluster at {address} within "
+                           f"{RAY_CONNECT_TIMEOUT:g} s: {error}") from None
+
+
 def make_backend(name: str, *, workers: int | None = None, address: str | None = None) -> Backend:
-    """Backend by name; `workers` defaults to all cores (serial: 1)."""
+    """Backend by name; `workers` defaults to all cores (serial: 1).
+
+    Raises:
+      BackendError: unknown name, `workers` < 1, `address` without Ray or unreachable.
+    """
     if address is not None and name != "ray":
-        raise ValueError("--address is for the Ray backend only")
+        raise BackendError("--address is for the Ray backend only")
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int)
+                                or workers < 1):
+        raise BackendError(f"workers must be a whole number >= 1 (omit it for all cores), "
+                           f"got {workers!r}")
     cores = os.cpu_count() or 1
     if name == "serial":
         return SerialBackend()
@@ -251,4 +282,4 @@ def make_backend(name: str, *, workers: int | None = None, address: str | None =
         return ThreadBackend(workers or cores)
     if name == "ray":
         return RayBackend(workers, address=address)
-    raise ValueError(f"unknown backend {name!r}; choose one of {', '.join(BACKENDS)}")
+    raise BackendError(f"unknown backend {name!r}; choose one of {', '.join(BACKENDS)}")

@@ -41,6 +41,7 @@ from tqdm import tqdm
 from mjregen.errors import MjregenError, OutputExistsError
 from mjregen.figures import MATERIAL_RGBA
 from mjregen.fileio import atomic_open
+from mjregen.gl import BACKENDS, HEADLESS_BACKENDS, INSTALL_HINT, missing_library
 from mjregen.grid import Material
 
 if TYPE_CHECKING:
@@ -50,14 +51,6 @@ if TYPE_CHECKING:
 
 _log = logging.getLogger(__name__)
 
-HEADLESS_BACKENDS = ("egl", "osmesa")  # tried in this order when MUJOCO_GL is not set
-BACKENDS = HEADLESS_BACKENDS + ("glfw",)
-INSTALL_HINT = {
-    "egl": "EGL: apt-get install libegl1 libgl1-mesa-dri (Mesa, renders on the CPU) or a GPU "
-           "driver with EGL",
-    "osmesa": "OSMesa: apt-get install libosmesa6",
-    "glfw": "GLFW: needs a display (DISPLAY set) and pip install glfw",
-}
 VOXEL_DRAW_SCALE = 0.9  # voxels are drawn this much smaller than their cells
 _PROBE = """
 import importlib, sys
@@ -94,6 +87,9 @@ def select_gl_backend() -> str:
             raise GLBackendError(
                 f"MUJOCO_GL={requested!r} cannot render off-screen; use one of "
                 f"{', '.join(BACKENDS)} or unset it to choose automatically (EGL, then OSMesa)")
+        problem = missing_library(requested)
+        if problem:
+            raise GLBackendError(problem)
         _log.info("rendering with MUJOCO_GL=%s (from the environment)", requested)
         return requested
     failures = []
@@ -470,6 +466,8 @@ def write_frames(compiled: CompiledRobot, qpos: np.ndarray, folder: str | os.Pat
 
     Args:
       qpos: ``(F, nq)`` states or ``(nq,)`` for one image.
+    With `overwrite`, frames of an earlier, longer render beyond these are removed.
+
     Raises:
       OutputExistsError: a frame file exists and not `overwrite` (nothing is written then).
     """
@@ -486,4 +484,6 @@ def write_frames(compiled: CompiledRobot, qpos: np.ndarray, folder: str | os.Pat
                                  disable=not progress):
             with atomic_open(frame) as handle:
                 Image.fromarray(renderer.render(state)).save(handle, format="PNG")
+    for stale in set(folder.glob("frame_*.png")) - set(paths):  # an earlier, longer render
+        stale.unlink()
     return paths

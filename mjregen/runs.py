@@ -243,7 +243,10 @@ def run_evolution(
       RunFolderError: `out` holds another run, there is nothing to resume, its config was
         edited, or `force` is asked to delete a folder that is not a run folder.
       RunFailedError: every evaluation of a generation failed.
+      ValueError: `seed` is not a whole number >= 0 (nothing is written).
     """
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ValueError(f"seed must be a whole number >= 0, got {seed!r}")
     out = Path(out)
     config = {
         "format": RUN_FORMAT, "task": task_config, "ga": ga_config.to_dict(), "seed": seed,

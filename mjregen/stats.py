@@ -4,7 +4,8 @@
 from __future__ import annotations
 
 import csv
-from dataclasses import dataclass
+import json
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -15,13 +16,29 @@ from mjregen.plotting import line_axes, save_png
 
 @dataclass(frozen=True)
 class CurveStats:
-    """Per generation over runs: ``generations (G,)``, ``mean, low, high (G,)``, n runs."""
+    """Per generation over runs: ``generations (G,)``, ``mean, low, high (G,)``, n runs, and
+    each run's own length (longer runs are cut to G)."""
 
     generations: np.ndarray
     mean: np.ndarray
     low: np.ndarray
     high: np.ndarray
     n_runs: int
+    run_lengths: tuple[int, ...] = ()
+
+    @property
+    def truncated(self) -> bool:
+        """Some runs had more generations than the curves show."""
+        return any(n > len(self.generations) for n in self.run_lengths)
+
+
+def run_kind(run: str | Path) -> str:
+    """What a run folder evolved for: its config.json's task ("locomotion", "regrowth")."""
+    path = Path(run) / "config.json"
+    try:
+        return str(json.loads(path.read_text())["task"]["task"])
+    except (OSError, ValueError, KeyError, TypeError) as error:
+        raise MjregenError(f"{path}: cannot tell what the run evolved for ({error})") from None
 
 
 def read_curve(run: str | Path, column: str = "best") -> np.ndarray:
@@ -55,10 +72,20 @@ def bootstrap_curves(curves: np.ndarray, *, resamples: int = 10_000, confidence:
 
 
 def group_stats(runs: list[str | Path], column: str = "best", **kwargs: object) -> CurveStats:
-    """`bootstrap_curves` of several runs, cut to the shortest run's length."""
+    """`bootstrap_curves` of several runs of one kind, cut to the shortest run's length
+    (`CurveStats.truncated` says whether that cut anything).
+
+    Raises:
+      MjregenError: the runs evolved for different tasks (their fitnesses do not compare).
+    """
+    kinds = {str(run): run_kind(run) for run in runs}
+    if len(set(kinds.values())) > 1:
+        raise MjregenError("the runs evolved for different tasks, whose fitnesses do not "
+                           f"compare: {', '.join(f'{r} ({k})' for r, k in kinds.items())}")
     curves = [read_curve(run, column) for run in runs]
     length = min(len(c) for c in curves)
-    return bootstrap_curves(np.stack([c[:length] for c in curves]), **kwargs)
+    stats = bootstrap_curves(np.stack([c[:length] for c in curves]), **kwargs)
+    return replace(stats, run_lengths=tuple(len(c) for c in curves))
 
 
 def plot_groups(groups: dict[str, CurveStats], path: str | Path, *, ylabel: str = "best fitness") -> None:

@@ -99,3 +99,82 @@ def test_percent_of_a_distance_that_is_no_walk_is_not_applicable():
     table = report.to_markdown()
     assert "n/a" in table and "nan" not in table and "%)" not in table
     assert report.to_dict()["percent_of_original"]["regrown"] is None
+
+
+def test_misused_numbers_and_backends_are_one_line_errors(tmp_path, capsys):
+    for argv, message in ((["evolve", "--workers", "-2"], "--workers"),
+                          (["evolve", "--workers", "0"], "all cores"),
+                          (["evolve", "--seed", "-1"], "seed")):
+        with pytest.raises(SystemExit) as exit_:
+            main([*argv, "--out", str(tmp_path / "run")])
+        assert exit_.value.code == 2 and message in capsys.readouterr().err
+    assert not (tmp_path / "run").exists()  # nothing half-made blocks the corrected rerun
+
+
+def test_unreachable_ray_cluster_fails_within_seconds(tmp_path):
+    pytest.importorskip("ray")
+    import time
+
+    start = time.monotonic()
+    done = subprocess.run([sys.executable, "-m", "mjregen", "evolve", "--dim", "2", "--pop", "4",
+                           "--gens", "1", "--backend", "ray", "--address", "127.0.0.1:1",
+                           "--out", str(tmp_path / "run")], capture_output=True, text=True,
+                          timeout=120)
+    assert done.returncode == 1 and "cannot reach the Ray cluster" in done.stderr
+    assert time.monotonic() - start < 60 and not (tmp_path / "run").exists()
+
+
+def test_missing_opengl_library_stops_only_rendering(tmp_path, monkeypatch):
+    """MUJOCO_GL naming a backend whose library is absent: walking works, rendering says
+    what to install (one line)."""
+    import ctypes.util
+
+    Robot(BLOCK).save(tmp_path / "robot.npy")
+    real = ctypes.util.find_library
+    env = {**os.environ, "MUJOCO_GL": "osmesa"}
+    if real("OSMesa") is not None:
+        pytest.skip("libOSMesa is installed here")
+    walk = subprocess.run([sys.executable, "-m", "mjregen", "walk", str(tmp_path / "robot.npy"),
+                           "--duration", "0.01"], capture_output=True, text=True, env=env)
+    assert walk.returncode == 0 and "distance" in walk.stdout
+    render = subprocess.run([sys.executable, "-m", "mjregen", "render",
+                             str(tmp_path / "robot.npy"), "--duration", "0.01", "--frames",
+                             str(tmp_path / "frames")], capture_output=True, text=True, env=env)
+    assert render.returncode == 1 and "libosmesa6" in render.stderr
+    assert render.stderr.count("\n") == 1
+
+
+def test_broken_pipe_is_quiet(tmp_path):
+    Robot(np.pad(np.ones((7, 7, 7), dtype=np.int8), 1)).save(tmp_path / "robot.npy")
+    done = subprocess.run(f"'{sys.executable}' -m mjregen show '{tmp_path / 'robot.npy'}' "
+                          "2>&1 | head -c 10",
+                          shell=True, executable="/bin/bash", capture_output=True, text=True)
+    assert "Traceback" not in done.stdout and "BrokenPipe" not in done.stdout
+
+
+def test_random_bytes_are_not_a_robot_and_get_no_pickle_advice(tmp_path, capsys):
+    (tmp_path / "r.npy").write_bytes(os.urandom(400))
+    assert main(["show", str(tmp_path / "r.npy")]) == 1
+    err = one_line_error(capsys)
+    assert "allow_pickle" not in err and "not a valid .npy robot file" in err
+
+
+def test_evolve_stats_refuses_mixed_tasks_says_when_it_cuts_and_keeps_its_output(tmp_path, capsys):
+    import json
+
+    for name, task, generations in (("a", "locomotion", 3), ("b", "locomotion", 5),
+                                    ("c", "regrowth", 3)):
+        run = tmp_path / name
+        run.mkdir()
+        (run / "config.json").write_text(json.dumps({"task": {"task": task}}))
+        rows = "".join(f"{g},{g}\n" for g in range(generations))
+        (run / "metrics.csv").write_text("generation,best\n" + rows)
+    out = tmp_path / "curves.png"
+    assert main(["evolve-stats", "--group", "x", str(tmp_path / "a"), str(tmp_path / "c"),
+                 "--out", str(out)]) == 1
+    assert "different tasks" in one_line_error(capsys)
+    assert main(["evolve-stats", "--group", "x", str(tmp_path / "a"), str(tmp_path / "b"),
+                 "--out", str(out)]) == 0
+    assert "cut to its shortest run, 3 generations (runs have 3, 5)" in capsys.readouterr().err
+    assert main(["evolve-stats", "--group", "x", str(tmp_path / "a"), "--out", str(out)]) == 1
+    assert "pass --force" in one_line_error(capsys)

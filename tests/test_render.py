@@ -258,3 +258,12 @@ def test_growth_figure_rejects_bad_input(tmp_path):
         growth_figure(np.zeros((1, 5, 5)), tmp_path / "g.jpg")
     with pytest.raises(ValueError, match="2 titles for 1 states"):
         growth_figure(np.zeros((1, 5, 5)), tmp_path / "g.png", titles=["a", "b"])
+
+
+def test_frames_replaced_with_force_leave_no_stale_frames(backend, tmp_path):
+    compiled = compile_robot(Robot.from_body(np.ones((2, 2, 2), np.int8)))
+    states = np.repeat(compiled.model.qpos0[None], 4, axis=0)
+    write_frames(compiled, states, tmp_path, view=SMALL, progress=False, backend=backend)
+    write_frames(compiled, states[:2], tmp_path, view=SMALL, overwrite=True, progress=False,
+                 backend=backend)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["frame_00000.png", "frame_00001.png"]

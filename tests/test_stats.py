@@ -26,10 +26,14 @@ def test_group_stats_reads_metrics_and_plots(tmp_path):
     for i, curve in enumerate(([1, 2, 3, 4], [2, 3, 4])):
         run = tmp_path / f"run{i}"
         run.mkdir()
+        (run / "config.json").write_text('{"task": {"task": "locomotion"}}')
         (run / "metrics.csv").write_text("generation,best\n" + "".join(f"{g},{b}\n" for g, b in enumerate(curve)))
     stats = group_stats([tmp_path / "run0", tmp_path / "run1"])
     assert stats.n_runs == 2 and np.allclose(stats.mean, [1.5, 2.5, 3.5])
+    assert stats.truncated and stats.run_lengths == (4, 3)
     plot_groups({"a": stats}, tmp_path / "curves.png")
     assert (tmp_path / "curves.png").read_bytes()[:4] == b"\x89PNG"
+    (tmp_path / "missing").mkdir()
+    (tmp_path / "missing" / "config.json").write_text('{"task": {"task": "locomotion"}}')
     with pytest.raises(FileNotFoundError, match="metrics.csv"):
         group_stats([tmp_path / "missing"])

@@ -7,11 +7,12 @@ Errors a user can cause (missing file, bad grid, bad checkpoint) print one line
 from __future__ import annotations
 
 import argparse
+import os
 import shlex
 import sys
 from typing import Callable, Sequence
 
-from mjregen import __version__
+from mjregen import __version__, gl
 from mjregen.cli import evolution, regeneration, robots
 from mjregen.errors import MjregenError, OutputExistsError
 
@@ -38,10 +39,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(words)
     handler: Handler = args.handler
     try:
+        _prepare_gl(args)
         return handler(args)
     except KeyboardInterrupt:
         print(_interrupted(args, words), file=sys.stderr)
         return 130
+    except BrokenPipeError:
+        # the reader stopped (``mjregen show x.npy | head``): not an error of ours; point
+        # stdout at nothing so that Python's final flush does not complain
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 141
     except OutputExistsError as error:
         print(f"mjregen: error: {error.path} exists; pass --force to replace it",
               file=sys.stderr)
@@ -49,6 +56,17 @@ def main(argv: Sequence[str] | None = None) -> int:
     except (MjregenError, OSError) as error:
         print(f"mjregen: error: {error}", file=sys.stderr)
         return 1
+
+
+def _prepare_gl(args: argparse.Namespace) -> None:
+    """Before anything imports MuJoCo: a ``MUJOCO_GL`` whose library is missing is a
+    one-line error for commands that render; the others then load no OpenGL at all."""
+    renders = getattr(args, "renders", False) and not getattr(args, "no_video", False)
+    problem = gl.missing_library(gl.requested_backend())
+    if problem and renders:
+        raise MjregenError(problem)
+    if problem and "mujoco" not in sys.modules:
+        gl.disable_for_work_without_rendering()
 
 
 def _interrupted(args: argparse.Namespace, words: list[str]) -> str:

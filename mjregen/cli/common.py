@@ -11,6 +11,30 @@ from mjregen.evolve import PRESETS, GAConfig
 from mjregen.grid import Material, Robot
 
 
+def seed(text: str) -> int:
+    """argparse type of --seed: a whole number >= 0 (numpy's seeds)."""
+    value = _whole(text, "seed")
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"a seed is a whole number >= 0, got {text}")
+    return value
+
+
+def workers(text: str) -> int:
+    """argparse type of --workers: a whole number >= 1 (omit the flag for all cores)."""
+    value = _whole(text, "workers")
+    if value < 1:
+        raise argparse.ArgumentTypeError(
+            f"--workers needs at least 1 (omit it to use all cores), got {text}")
+    return value
+
+
+def _whole(text: str, name: str) -> int:
+    try:
+        return int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{name} must be a whole number, got {text!r}") from None
+
+
 def material_counts(robot: Robot) -> dict[str, int]:
     """Voxels per material, by lower-case name, empty left out."""
     return {m.name.lower(): n for m, n in robot.material_counts().items() if m != Material.EMPTY}

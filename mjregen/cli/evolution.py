@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 
 from mjregen.cli.common import (
@@ -12,6 +13,8 @@ from mjregen.cli.common import (
     add_run_folder_arguments,
     ga_config,
     physics_from_args,
+    seed,
+    workers,
 )
 from mjregen.errors import MjregenError
 
@@ -33,10 +36,10 @@ def add_evolve(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--net", choices=("ff", "lstm"), help="NCA network (default ff)")
     add_ga_arguments(parser, preset_help="GA preset (default: 2d or 3d by --dim)")
     add_physics_arguments(parser)
-    parser.add_argument("--seed", type=int, help="seed of the GA (default 0)")
+    parser.add_argument("--seed", type=seed, help="seed of the GA (default 0)")
     parser.add_argument("--backend", choices=BACKENDS, default="process",
                         help="where simulations run (default: local processes)")
-    parser.add_argument("--workers", type=int, help="parallel workers (default: all cores)")
+    parser.add_argument("--workers", type=workers, help="parallel workers (default: all cores)")
     parser.add_argument("--address", help="Ray cluster address (with --backend ray)")
     add_run_folder_arguments(parser, resume_help="continue the run in --out with its stored settings")
     parser.add_argument("--json", action="store_true", help="print a JSON summary at the end")
@@ -121,18 +124,31 @@ def add_evolve_stats(subparsers: argparse._SubParsersAction) -> None:
                         metavar=("LABEL", "RUN"), help="a label and its run folders")
     parser.add_argument("--column", default="best", help="metrics.csv column (default best)")
     parser.add_argument("--out", type=Path, required=True, help="PNG to write")
+    parser.add_argument("--force", action="store_true", help="overwrite --out if it exists")
     parser.add_argument("--json", action="store_true", help="print the curves as JSON")
     parser.set_defaults(handler=_evolve_stats)
 
 
 def _evolve_stats(args: argparse.Namespace) -> int:
-    from mjregen.stats import group_stats, plot_groups
+    from mjregen.errors import OutputExistsError
+    from mjregen.stats import group_stats, plot_groups, run_kind
 
+    if args.out.exists() and not args.force:
+        raise OutputExistsError(args.out)
     groups = {}
     for label, *runs in args.group:
         if not runs:
             raise MjregenError(f"group {label!r} names no run folders")
         groups[label] = group_stats(runs, args.column)
+    kinds = {label: run_kind(runs[0]) for label, *runs in args.group}
+    if len(set(kinds.values())) > 1:
+        raise MjregenError("the groups evolved for different tasks, whose fitnesses do not "
+                           f"compare: {', '.join(f'{g} ({k})' for g, k in kinds.items())}")
+    for label, stats in groups.items():
+        if stats.truncated:
+            print(f"note: group {label!r} cut to its shortest run, {len(stats.generations)} "
+                  f"generations (runs have {', '.join(map(str, stats.run_lengths))})",
+                  file=sys.stderr)
     plot_groups(groups, args.out, ylabel=args.column)
     if args.json:
         print(json.dumps({label: {"runs": s.n_runs, "mean": s.mean.tolist(), "low": s.low.tolist(),

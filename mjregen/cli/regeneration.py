@@ -14,6 +14,7 @@ from mjregen.cli.common import (
     add_run_folder_arguments,
     ga_config,
     physics_from_args,
+    seed,
 )
 from mjregen.errors import MjregenError
 
@@ -38,12 +39,12 @@ def add_regen(subparsers: argparse._SubParsersAction) -> None:
                         "x below the grid centre)")
     parser.add_argument("--net", choices=("ff", "lstm"), help="regrowth NCA (default ff)")
     add_ga_arguments(parser, preset_help="GA preset (default: regen, the paper's)")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the GA (default 0)")
+    parser.add_argument("--seed", type=seed, default=0, help="seed of the GA (default 0)")
     add_physics_arguments(parser)
     add_run_folder_arguments(parser, resume_help="continue the run in --out (same arguments)")
     parser.add_argument("--no-video", action="store_true", help="skip the three videos")
     parser.add_argument("--json", action="store_true", help="print the recovery report as JSON")
-    parser.set_defaults(handler=_regen)
+    parser.set_defaults(handler=_regen, renders=True)
 
 
 def _original(args: argparse.Namespace):

@@ -13,6 +13,7 @@ from mjregen.cli.common import (
     add_physics_choice,
     material_counts,
     physics_from_args,
+    seed,
 )
 from mjregen.errors import MjregenError, OutputExistsError
 from mjregen.grid import Robot
@@ -27,7 +28,7 @@ def add_grow(subparsers: argparse._SubParsersAction) -> None:
     )
     source = parser.add_mutually_exclusive_group()
     source.add_argument("--checkpoint", type=Path, help="NCA checkpoint (.npz)")
-    source.add_argument("--seed", type=int, default=0, help="seed of a random NCA (default 0)")
+    source.add_argument("--seed", type=seed, default=0, help="seed of a random NCA (default 0)")
     parser.add_argument("--dim", type=int, choices=(2, 3), default=3, help="random NCA: 2D or 3D")
     parser.add_argument("--net", choices=("ff", "lstm"), default="ff", help="random NCA: network")
     parser.add_argument("--steps", type=int, help="growth steps (default: the NCA's, 10)")
@@ -150,7 +151,7 @@ def _walk(args: argparse.Namespace) -> int:
 
 
 def add_export(subparsers: argparse._SubParsersAction) -> None:
-    from mjregen.physics.native import library_path
+    from mjregen.native_cache import library_path
 
     parser = subparsers.add_parser(
         "export",
@@ -212,7 +213,7 @@ def add_render(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--slowdown", type=float, default=10.0, help="times slower than real time (default 10)")
     parser.add_argument("--force", action="store_true", help="overwrite existing files")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
-    parser.set_defaults(handler=_render)
+    parser.set_defaults(handler=_render, renders=True)
 
 
 def _render(args: argparse.Namespace) -> int:

@@ -20,7 +20,6 @@ checked against `ATTRIBUTES`, the keys `mjregen.physics.mjcf` writes.
 from __future__ import annotations
 
 import ctypes
-import hashlib
 import os
 import shutil
 import subprocess
@@ -31,11 +30,10 @@ from pathlib import Path
 import mujoco
 
 from mjregen.errors import MjregenError
+from mjregen.native_cache import PLUGIN_FILES, PLUGIN_SOURCES, library_path
 
 PLUGIN_NAME = "mjregen.voxels"
-SOURCE_DIR = Path(__file__).with_name("plugin")
-SOURCES = tuple(SOURCE_DIR / name for name in ("voxels.c", "forces.c", "step.c"))
-HEADER = SOURCE_DIR / "voxels.h"
+SOURCES = tuple(PLUGIN_SOURCES / name for name in PLUGIN_FILES if name.endswith(".c"))
 ATTRIBUTES = (
     "dim", "voxel_size", "voxels", "frequency", "start", "waveform", "drive", "phase", "strain",
     "element", "bonds", "bond_axis", "bond_muscle", "bond_stiffness", "bond_axial_law",
@@ -67,17 +65,6 @@ def _mujoco_library() -> Path:
     if not candidates:
         raise NativeBuildError(f"no libmujoco shared library next to the mujoco package in {root}")
     return candidates[0]
-
-
-def library_path() -> Path:
-    """Where the plugin library for these sources and this MuJoCo lives (built or not)."""
-    key = hashlib.sha256(b"".join(path.read_bytes() for path in (HEADER, *SOURCES))
-                         + mujoco.__version__.encode()
-                         + mujoco.__file__.encode()).hexdigest()[:16]
-    root = Path(os.environ.get("MJREGEN_CACHE",
-                               Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache"))
-                               / "mjregen"))
-    return root / f"libmjregen_voxels-{key}.so"
 
 
 def plugin_library() -> Path:
