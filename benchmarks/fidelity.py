@@ -26,6 +26,7 @@ import argparse
 import dataclasses
 import json
 import math
+import os
 import time
 from pathlib import Path
 
@@ -35,7 +36,8 @@ from mjregen.physics import Physics, legacy_physics, paper_physics, sphere_physi
 from mjregen.reference import CASES, REFERENCE, ROBOT_FILES, CaseResult, load_csv
 
 ROOT = Path(__file__).resolve().parent.parent
-DEFAULT_REFERENCE = Path("/work/shared/paper/reference")
+# the paper engine's recordings (not shipped: 7.5 MB); --reference or $MJREGEN_REFERENCE
+DEFAULT_REFERENCE = Path(os.environ.get("MJREGEN_REFERENCE", "reference"))
 PRESETS = {"default": Physics, "paper": paper_physics, "legacy": legacy_physics,
            "sphere": sphere_physics}
 UNITS = {"distance": (1.0, "vox"), "sag_max_t": (1e3, "ms"), "stop_after": (1e3, "ms")}
@@ -175,7 +177,9 @@ def main() -> None:
     parser.add_argument("--scene", action="append", default=[], metavar="KEY=VALUE")
     parser.add_argument("--friction", type=float, default=None)
     parser.add_argument("--cases", default=",".join(CASES))
-    parser.add_argument("--reference", type=Path, default=DEFAULT_REFERENCE)
+    parser.add_argument("--reference", type=Path, default=DEFAULT_REFERENCE,
+                        help="folder of the paper engine's recordings (*.csv.gz), for the plots "
+                             "(default $MJREGEN_REFERENCE, else ./reference)")
     parser.add_argument("--doc", type=Path, default=None, help="write the table + plots here")
     parser.add_argument("--json", type=Path, default=None)
     parser.add_argument("--no-plots", action="store_true")

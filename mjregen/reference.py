@@ -1,7 +1,7 @@
 """The paper engine's reference cases, re-run in mjregen.
 
-The reference trajectories (`shared/paper/reference/`, produced with the paper's Voxelyze
-build) cover small mechanical cases and the paper's three robots. This module sets up each
+The reference trajectories (recorded from the paper's Voxelyze build) cover small
+mechanical cases and the paper's three robots. This module sets up each
 case in mjregen with a given `Physics`, runs it and returns the same measures the
 reference's `summary.json` holds, plus traces for plots. The reference numbers that the
 cases are judged by are copied here (`REFERENCE`), so tests need no data files.
@@ -15,7 +15,6 @@ import gzip
 import math
 import os
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Callable
 
 import mujoco
@@ -25,8 +24,9 @@ from mjregen.grid import Material, Robot
 from mjregen.physics import Physics
 from mjregen.physics.compile import compile_robot
 from mjregen.physics.simulation import Simulation, simulation_of
+from mjregen.resources import asset
 
-PAPER_ROBOTS = Path(__file__).resolve().parent.parent / "assets" / "robots" / "paper"
+PAPER_ROBOTS = asset("robots", "paper")
 
 # From the reference's summary.json (paper engine, its default settings).
 REFERENCE = {

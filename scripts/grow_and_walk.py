@@ -36,8 +36,9 @@ from mjregen.errors import MjregenError
 from mjregen.fileio import atomic_open
 from mjregen.grid import Robot
 from mjregen.physics import Physics
+from mjregen.resources import asset
 
-DEFAULT_NCA = Path(__file__).resolve().parents[1] / "assets" / "nca" / "walker_3d.npz"
+DEFAULT_NCA = asset("nca", "walker_3d.npz")
 OUTPUTS = ("robot.npy", "robot.xml", "growth.png", "walk.mp4", "summary.json")
 
 

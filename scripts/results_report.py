@@ -13,7 +13,7 @@ Reads the evolution runs under --root (runs/results/<condition>/seed_<n>), the r
                                    beside the paper's Table 1, measured facts for discussion
 
 It works on whatever exists: a condition without runs gets a "not run" line. The paper's
-Table 1 is parsed from the paper's LaTeX (--paper, default the project's shared copy; a
+Table 1 is parsed from the paper's LaTeX (--paper, default $MJREGEN_PAPER or ./paper; a
 verbatim copy of the table in this file otherwise). Prose of your own goes into
 docs/results_discussion.md, which is included verbatim when it exists.
 
@@ -27,6 +27,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import re
 import subprocess
 import sys
@@ -40,7 +41,7 @@ from mjregen import experiments as ex
 from mjregen.errors import MjregenError
 
 ROOT = Path(__file__).resolve().parents[1]
-PAPER_GLOB = ROOT.parent / "shared" / "paper"
+PAPER_GLOB = Path(os.environ.get("MJREGEN_PAPER", "paper"))  # a folder with the paper's LaTeX
 # The paper's Table 1, verbatim (used when its LaTeX is not on this machine).
 TABLE_1_LATEX = r"""
     Morphology (Network) & Similarity & Original & Damaged & Regrown\\
@@ -495,7 +496,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--out", type=Path, default=ROOT / "docs" / "results.md",
                         help="the Markdown file (default docs/results.md)")
     parser.add_argument("--figures", type=Path, help="PNG folder (default: results/ beside --out)")
-    parser.add_argument("--paper", type=Path, help="the paper's LaTeX (default: the shared copy)")
+    parser.add_argument("--paper", type=Path, help="the paper's LaTeX (default: the .txt in $MJREGEN_PAPER or ./paper)")
     parser.add_argument("--no-render", action="store_true", help="skip the rendered gallery")
     return parser
 

@@ -17,8 +17,9 @@ from mjregen.cli.common import (
     seed,
 )
 from mjregen.errors import MjregenError
+from mjregen.resources import asset
 
-PAPER_ROBOTS = Path(__file__).resolve().parents[2] / "assets" / "robots" / "paper"
+PAPER_ROBOTS = asset("robots", "paper")
 
 
 def add_regen(subparsers: argparse._SubParsersAction) -> None:
