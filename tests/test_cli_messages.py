@@ -178,3 +178,11 @@ def test_evolve_stats_refuses_mixed_tasks_says_when_it_cuts_and_keeps_its_output
     assert "cut to its shortest run, 3 generations (runs have 3, 5)" in capsys.readouterr().err
     assert main(["evolve-stats", "--group", "x", str(tmp_path / "a"), "--out", str(out)]) == 1
     assert "pass --force" in one_line_error(capsys)
+
+
+def test_the_environment_refuses_an_empty_robot_like_the_commands():
+    from mjregen.env import RobotEnv
+    from mjregen.errors import CompileError
+
+    with pytest.raises(CompileError, match="empty robot"):
+        RobotEnv(Robot(EMPTY_3D))

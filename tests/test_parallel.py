@@ -101,3 +101,13 @@ def test_ray_backend_locally():
         assert [o.value for o in failed if o.ok] == [0, 1, 2, 4]
         died = backend.map(die_on_three, list(range(5)))
         assert not died[3].ok and [o.value for o in died if o.ok] == [0, 1, 2, 4]
+
+
+def test_ray_backend_without_ray_is_a_clear_error(monkeypatch):
+    import sys
+
+    from mjregen.parallel import BackendError
+
+    monkeypatch.setitem(sys.modules, "ray", None)  # as if Ray were not installed
+    with pytest.raises(BackendError, match="pip install"):
+        make_backend("ray", address="ray://127.0.0.1:10001")
