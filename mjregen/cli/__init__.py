@@ -75,5 +75,6 @@ def _interrupted(args: argparse.Namespace, words: list[str]) -> str:
     if not getattr(args, "resumable", False):
         return "mjregen: interrupted"
     resume = [w for w in words if w != "--force"] + ([] if "--resume" in words else ["--resume"])
-    return (f"mjregen: interrupted; the checkpoint in {args.out} is intact. Continue with: "
-            f"mjregen {shlex.join(resume)}")
+    state = ("the checkpoint in {} is intact" if (args.out / "checkpoint.npz").is_file()
+             else "no generation of the run in {} had finished").format(args.out)
+    return f"mjregen: interrupted; {state}. Continue with: mjregen {shlex.join(resume)}"
