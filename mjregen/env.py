@@ -1,17 +1,16 @@
 """A `dm_env.Environment` of one robot whose muscle groups an outside controller drives.
 
-dm_control's `mujoco.Physics` does not load models under MuJoCo 4.0.0 (dm-control 1.0.50, the
-newest release, looks up the removed field ``MjModel.flex_vertedge``), so this environment
-implements the `dm_env.Environment` interface directly on the `mujoco` bindings. Agents and
-tools written against `dm_env` (acme, dm_env's test helpers, ...) work with it; dm_control
-tools that need a dm_control ``Physics`` (its viewer, ``control.Environment`` wrappers) do not.
+It implements the `dm_env.Environment` interface directly on the `mujoco` bindings (the
+voxel plugin takes the two strains as the controls of its ``muscle_plus`` and
+``muscle_minus`` actuators). Agents and tools written against `dm_env` (acme, dm_env's test
+helpers, ...) work with it.
 
 Episode: `reset` compiles nothing; it restores the initial state, lets the robot settle
 without actuation for the scene's settle time (as `mjregen.physics.simulation.simulate` does) and
 returns the FIRST time step (`UnstableSettleError` if the robot diverges while settling).
 Each `step` holds the action for `control_timestep` seconds of physics. The episode ends
 (truncation, discount 1) after `duration` seconds of control, or (termination, discount 0,
-reward 0) when the stability guard of `mjregen.simulate` trips; `last_failure` then says
+reward 0) when the stability guard of `mjregen.physics.simulation` trips; `last_failure` then says
 why.
 
 Action: ``(2,)`` float, the signed strains of the two muscle groups (muscle + and muscle −)
