@@ -181,8 +181,8 @@ def test_evolve_stats_refuses_mixed_tasks_says_when_it_cuts_and_keeps_its_output
 
 
 def test_the_environment_refuses_an_empty_robot_like_the_commands():
-    from mjregen.env import RobotEnv
+    from mjregen.env import load
     from mjregen.errors import CompileError
 
     with pytest.raises(CompileError, match="empty robot"):
-        RobotEnv(Robot(EMPTY_3D))
+        load(Robot(EMPTY_3D))
