@@ -57,8 +57,11 @@ class VoxelPhysics(dm_mujoco.Physics):
     def voxel_bodies(self) -> np.ndarray:
         """``(n,)`` body ids of the voxels (bodies named ``voxel_...``), in body order."""
         model = self.model.ptr
-        return np.array([b for b in range(1, model.nbody)
-                         if model.body(b).name.startswith("voxel_")], dtype=int)
+        if getattr(self, "_voxel_model", None) is not model:  # found once per model
+            self._voxel_model = model
+            self._voxel_ids = np.array([b for b in range(1, model.nbody)
+                                        if model.body(b).name.startswith("voxel_")], dtype=int)
+        return self._voxel_ids
 
     def center_of_mass(self) -> np.ndarray:
         """``(3,)`` m: the robot's centre of mass."""
