@@ -10,7 +10,8 @@ environment. Names are the model's: bodies ``voxel_<x>_<y>_<z>`` (2D ``voxel_<x>
 Episode: `reset` restores the initial state and lets the robot settle without actuation for
 the scene's settle time (as `mjregen.physics.simulate` does); each step holds the action for
 `control_timestep` seconds of physics; the episode ends after `duration` s of control
-(truncation, discount 1) or when a voxel runs away (termination, discount 0).
+(truncation, discount 1) or when the stability guard of `simulate` trips (termination,
+discount 0).
 
 Action: ``(2,)`` float, the signed strains of the two muscle groups (muscle + and muscle −)
 in units of their strain amplitude: a muscle voxel's linear scale is 1 + amplitude × action;
@@ -31,8 +32,10 @@ import collections
 import math
 import os
 
-if not os.environ.get("MUJOCO_GL") and not os.environ.get("DISPLAY"):
-    os.environ["MUJOCO_GL"] = "egl"  # headless: dm_control would try GLFW and warn
+from mjregen.gl import HEADLESS_BACKENDS, requested_backend
+
+if not requested_backend() and not os.environ.get("DISPLAY"):
+    os.environ["MUJOCO_GL"] = HEADLESS_BACKENDS[0]  # headless: dm_control would try GLFW
 
 import mujoco  # noqa: E402 - after the OpenGL backend is chosen
 import numpy as np  # noqa: E402
@@ -46,7 +49,7 @@ from mjregen.grid import Robot  # noqa: E402
 from mjregen.physics import native  # noqa: E402
 from mjregen.physics.compile import compile_robot  # noqa: E402
 from mjregen.physics.params import Physics  # noqa: E402
-from mjregen.physics.simulation import RUNAWAY_SPEED  # noqa: E402
+from mjregen.physics.simulation import instability, inverse_speed_limits  # noqa: E402
 
 MUSCLE_GROUPS = ("muscle_plus", "muscle_minus")
 
@@ -112,6 +115,7 @@ class Locomotion(base.Task):
         self._high = 0.0 if contract else 1.0
         self._start = np.zeros(3)
         self._distance = 0.0
+        self._inverse_limits: np.ndarray | None = None
 
     def initialize_episode(self, physics: VoxelPhysics) -> None:
         """Settle without actuation; the distance counts from here."""
@@ -154,10 +158,11 @@ class Locomotion(base.Task):
         return reward
 
     def get_termination(self, physics: VoxelPhysics) -> float | None:
-        """0 (termination) when a voxel's centre runs faster than RUNAWAY_SPEED voxel
-        lengths per second, else None."""
-        speed = np.linalg.norm(physics.voxel_velocities(), axis=1)
-        return 0.0 if np.any(speed > RUNAWAY_SPEED * self._voxel) else None
+        """0 (termination) when the state is unstable as `simulate` judges it (a voxel
+        faster than RUNAWAY_SPEED voxel lengths per second, NaN), else None."""
+        if self._inverse_limits is None:
+            self._inverse_limits = inverse_speed_limits(physics.model.ptr, self._voxel)
+        return 0.0 if instability(physics.data.ptr, self._inverse_limits) else None
 
 
 def load(robot: Robot, *, physics: Physics | None = None, duration: float | None = None,

@@ -24,6 +24,7 @@ from mjregen.physics.model import (
     MuscleTendons,
     RobotLayout,
     bond_tables,
+    engine_floor_constants,
     robot_layout,
     round_like_mjcf,
     voxel_name,
@@ -159,13 +160,11 @@ def _network_step(model: mujoco.MjModel, layout: RobotLayout, physics: Physics,
         model = spec.compile()
     floor_k = floor_c = None
     if scene.floor and pipeline.name == "voxel":
-        L = scene.voxel_size
-        EL = np.array([physics.materials[m].youngs_modulus * L for _, m in layout.voxels])
         voxel_bodies = np.array([model.body(voxel_name(index)).id
                                  for index, _ in layout.voxels])
+        stiffness, damping = engine_floor_constants(layout, physics)
         floor_k, floor_c = timestep.engine_floor_rates(
-            model, voxel_bodies, dim=layout.dim, stiffness=pipeline.floor_stiffness * EL,
-            damping=pipeline.floor_damping * 2.0 * np.sqrt(layout.masses * EL),
+            model, voxel_bodies, dim=layout.dim, stiffness=stiffness, damping=damping,
             masses=layout.masses)
     stiffness, damping = timestep.network_rates(model, voxel_size=scene.voxel_size,
                                                 floor_stiffness=floor_k, floor_damping=floor_c)

@@ -28,6 +28,7 @@ from mjregen.physics.model import (
     BeamTable,
     BondTable,
     RobotLayout,
+    engine_floor_constants,
     near_pairs,
     round_like_mjcf,
     voxel_name,
@@ -90,8 +91,7 @@ def add_voxel_plugin(spec: mujoco.MjSpec, layout: RobotLayout, physics: Physics,
     scene, pipeline = physics.scene, physics.pipeline
     L = scene.voxel_size
     props = [physics.materials[m] for _, m in layout.voxels]
-    EL = np.array([p.youngs_modulus * L for p in props])
-    masses = layout.masses
+    floor_stiffness, floor_damping = engine_floor_constants(layout, physics)
     settle, _ = scene.timing(layout.dim)
     n_bonds = len(layout.bonds)
     weights = np.zeros((n_bonds, 2))
@@ -111,8 +111,8 @@ def add_voxel_plugin(spec: mujoco.MjSpec, layout: RobotLayout, physics: Physics,
         "bonds": _numbers(beams.ends), "bond_axis": _numbers(beams.axis),
         "bond_muscle": _numbers(weights),
         "floor": str(int(scene.floor)),
-        "floor_stiffness": _numbers(pipeline.floor_stiffness * EL),
-        "floor_damping": _numbers(pipeline.floor_damping * 2.0 * np.sqrt(masses * EL)),
+        "floor_stiffness": _numbers(floor_stiffness),
+        "floor_damping": _numbers(floor_damping),
         "static_friction": _numbers([p.friction for p in props]),
         "kinetic_friction": _numbers([p.friction if p.kinetic_friction is None
                                       else p.kinetic_friction for p in props]),

@@ -271,6 +271,16 @@ def bond_tables(layout: RobotLayout, physics: Physics
     return table, beams, muscles, max_k_per_m
 
 
+def engine_floor_constants(layout: RobotLayout, physics: Physics
+                           ) -> tuple[np.ndarray, np.ndarray]:
+    """``(n_voxels,)`` N/m and N·s/m: the engine floor's spring floor_stiffness·E·L and
+    damper floor_damping·2 sqrt(m E L) on each voxel (the voxel pipeline's parameters)."""
+    pipeline, L = physics.pipeline, physics.scene.voxel_size
+    EL = np.array([physics.materials[m].youngs_modulus * L for _, m in layout.voxels])
+    return (pipeline.floor_stiffness * EL,
+            pipeline.floor_damping * 2.0 * np.sqrt(layout.masses * EL))
+
+
 def round_like_mjcf(values: float | Sequence[float] | np.ndarray) -> float | list[float]:
     """`values` rounded to the 6 significant digits that MJCF export writes.
 

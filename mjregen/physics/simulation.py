@@ -109,8 +109,7 @@ class Simulation:
             self._lateral2 = muscles.lateral ** 2
             self._rest = self.model.tendon_lengthspring[: muscles.count]
         self.stepper = _stepper_for(model, self.data, physics, plugin_instance)
-        voxel = scene.voxel_size  # a rotation's speed limit: RUNAWAY_SPEED·L per L
-        self._inv_limit = np.where(rotational_dofs(model), voxel, 1.0) / (RUNAWAY_SPEED * voxel)
+        self._inv_limit = inverse_speed_limits(model, scene.voxel_size)
 
     def strains(self, t: float) -> tuple[float, float]:
         """Signed strains (e₊, e₋) of the two muscle phases at time `t` (s)."""
@@ -180,22 +179,33 @@ class Simulation:
 
     def check(self) -> str:
         """"" if the state is finite, warning-free and slower than RUNAWAY_SPEED."""
-        data = self.data
-        if np.any(data.warning.number):
-            for name, warning in WARNINGS:
-                if data.warning[warning].number > 0:
-                    return f"MuJoCo warning {name}"
-        if not (np.all(np.isfinite(data.qpos)) and np.all(np.isfinite(data.qvel))):
-            return "NaN or infinite state"
-        if data.qvel.size and np.max(np.abs(data.qvel) * self._inv_limit) > 1.0:
-            return f"runaway speed (above {RUNAWAY_SPEED:g} voxel lengths per second)"
-        return ""
+        return instability(self.data, self._inv_limit)
 
     def com(self) -> np.ndarray:
         """Centre of mass ``(3,)`` in m of the current state."""
         mujoco.mj_kinematics(self.model, self.data)
         mujoco.mj_comPos(self.model, self.data)
         return self.data.subtree_com[0].copy()
+
+
+def inverse_speed_limits(model: mujoco.MjModel, voxel_size: float) -> np.ndarray:
+    """``(nv,)`` s/m (s/rad on rotations): 1 / RUNAWAY_SPEED of each dof (a rotation's
+    limit is RUNAWAY_SPEED voxel lengths per voxel length)."""
+    return np.where(rotational_dofs(model), voxel_size, 1.0) / (RUNAWAY_SPEED * voxel_size)
+
+
+def instability(data: mujoco.MjData, inverse_limits: np.ndarray) -> str:
+    """Why `data`'s state is unstable ("" if it is finite, warning-free and every dof slower
+    than its limit, `inverse_speed_limits`)."""
+    if np.any(data.warning.number):
+        for name, warning in WARNINGS:
+            if data.warning[warning].number > 0:
+                return f"MuJoCo warning {name}"
+    if not (np.all(np.isfinite(data.qpos)) and np.all(np.isfinite(data.qvel))):
+        return "NaN or infinite state"
+    if data.qvel.size and np.max(np.abs(data.qvel) * inverse_limits) > 1.0:
+        return f"runaway speed (above {RUNAWAY_SPEED:g} voxel lengths per second)"
+    return ""
 
 
 def _stepper_for(model: mujoco.MjModel, data: mujoco.MjData, physics: Physics,
