@@ -30,7 +30,7 @@ from pathlib import Path
 import mujoco
 
 from mjregen.errors import MjregenError
-from mjregen.native_cache import PLUGIN_FILES, PLUGIN_SOURCES, library_path
+from mjregen.native_cache import FLAGS, PLUGIN_FILES, PLUGIN_SOURCES, library_path
 
 PLUGIN_NAME = "mjregen.voxels"
 SOURCES = tuple(PLUGIN_SOURCES / name for name in PLUGIN_FILES if name.endswith(".c"))
@@ -90,7 +90,7 @@ def plugin_library() -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(dir=path.parent) as tmp:
         out = Path(tmp) / path.name
-        command = [compiler, "-O3", "-std=c11", "-fPIC", "-shared", "-fno-fast-math",
+        command = [compiler, *FLAGS,
                    f"-I{include}", *map(str, SOURCES), "-o", str(out),
                    str(libmujoco), f"-Wl,-rpath,{libmujoco.parent}", "-lm"]
         done = subprocess.run(command, capture_output=True, text=True)

@@ -178,11 +178,109 @@ static void tendon_bonds(const mjrVoxels* v, double ep, double em) {
   }
 }
 
-/* v^T R (= R^T v): a world vector into the frame of rotation R (row-major) */
-static inline void to_frame(const double* R, const double* x, double* out) {
-  out[0] = R[0] * x[0] + R[3] * x[1] + R[6] * x[2];
-  out[1] = R[1] * x[0] + R[4] * x[1] + R[7] * x[2];
-  out[2] = R[2] * x[0] + R[5] * x[1] + R[8] * x[2];
+/* gain = 2 asin(s) / s, s^2 = s2: the series (to 1e-7 for s < 0.3, 35-degree bends) or,
+   `exact`, asin above it. The vectorised loop takes the series and flags the bonds past it
+   (beam_redo). */
+static inline double rotation_gain(double s2, int exact) {
+  double series = 2.0 + s2 * (1.0 / 3.0 + s2 * (0.15 + s2 * (5.0 / 56.0 + s2 * 35.0 / 576.0)));
+  if (!exact || s2 < 0.09) return series;
+  double sn = sqrt(s2);
+  return 2.0 * asin(sn < 1.0 ? sn : 1.0) / sn;
+}
+
+/* One beam bond n from the gathered inputs to its outputs (mjrBeams); `exact` as in
+   rotation_gain. Written for the vectoriser: no calls, no branches but selects. */
+static inline __attribute__((always_inline)) void beam_bond(
+    const double* restrict c, const double* restrict in, double* restrict out, size_t stride,
+    size_t n, double L, double ep, double em, size_t ndriven, int exact) {
+#define C(row) c[(row) * stride + n]
+#define IN(row) in[(row) * stride + n]
+#define OUT(row) out[(row) * stride + n]
+  double qi0 = IN(MJR_QI + 0), qi1 = IN(MJR_QI + 1), qi2 = IN(MJR_QI + 2), qi3 = IN(MJR_QI + 3);
+  double qj0 = IN(MJR_QJ + 0), qj1 = IN(MJR_QJ + 1), qj2 = IN(MJR_QJ + 2), qj3 = IN(MJR_QJ + 3);
+  /* r = q_i^-1 q_j on the short way round, its rotation vector Delta = gain rv, its half h */
+  double rw = qi0 * qj0 + qi1 * qj1 + qi2 * qj2 + qi3 * qj3;
+  double rv0 = qi0 * qj1 - qj0 * qi1 - (qi2 * qj3 - qi3 * qj2);
+  double rv1 = qi0 * qj2 - qj0 * qi2 - (qi3 * qj1 - qi1 * qj3);
+  double rv2 = qi0 * qj3 - qj0 * qi3 - (qi1 * qj2 - qi2 * qj1);
+  int flip = rw < 0.0;
+  rw = flip ? -rw : rw;
+  rv0 = flip ? -rv0 : rv0;
+  rv1 = flip ? -rv1 : rv1;
+  rv2 = flip ? -rv2 : rv2;
+  double s2 = rv0 * rv0 + rv1 * rv1 + rv2 * rv2;
+  OUT(MJR_S2) = s2;
+  double gain = rotation_gain(s2, exact);
+  double hn = 1.0 / sqrt((1.0 + rw) * (1.0 + rw) + s2);
+  double hw = (1.0 + rw) * hn, hv0 = rv0 * hn, hv1 = rv1 * hn, hv2 = rv2 * hn;
+  /* mid frame q_m = q_i h as a rotation matrix (mju_quat2Mat) */
+  double mw = qi0 * hw - qi1 * hv0 - qi2 * hv1 - qi3 * hv2;
+  double mx = qi0 * hv0 + qi1 * hw + qi2 * hv2 - qi3 * hv1;
+  double my = qi0 * hv1 + qi2 * hw + qi3 * hv0 - qi1 * hv2;
+  double mz = qi0 * hv2 + qi3 * hw + qi1 * hv1 - qi2 * hv0;
+  double M0 = mw * mw + mx * mx - my * my - mz * mz;
+  double M4 = mw * mw - mx * mx + my * my - mz * mz;
+  double M8 = mw * mw - mx * mx - my * my + mz * mz;
+  double M1 = 2 * (mx * my - mw * mz);
+  double M2 = 2 * (mx * mz + mw * my);
+  double M3 = 2 * (mx * my + mw * mz);
+  double M5 = 2 * (my * mz - mw * mx);
+  double M6 = 2 * (mx * mz - mw * my);
+  double M7 = 2 * (my * mz + mw * mx);
+  double dw0 = IN(MJR_DP + 0), dw1 = IN(MJR_DP + 1), dw2 = IN(MJR_DP + 2);
+  double wm0 = IN(MJR_WM + 0), wm1 = IN(MJR_WM + 1), wm2 = IN(MJR_WM + 2);
+  /* velocity of j relative to i as seen in the mid frame: v_j - v_i - w_m x d */
+  double uw0 = IN(MJR_DV + 0) - (wm1 * dw2 - wm2 * dw1);
+  double uw1 = IN(MJR_DV + 1) - (wm2 * dw0 - wm0 * dw2);
+  double uw2 = IN(MJR_DV + 2) - (wm0 * dw1 - wm1 * dw0);
+  double ww0 = IN(MJR_DW + 0), ww1 = IN(MJR_DW + 1), ww2 = IN(MJR_DW + 2);
+  /* into the mid frame: M^T x */
+  double d0 = M0 * dw0 + M3 * dw1 + M6 * dw2;
+  double d1 = M1 * dw0 + M4 * dw1 + M7 * dw2;
+  double d2 = M2 * dw0 + M5 * dw1 + M8 * dw2;
+  double dd0 = M0 * uw0 + M3 * uw1 + M6 * uw2;
+  double dd1 = M1 * uw0 + M4 * uw1 + M7 * uw2;
+  double dd2 = M2 * uw0 + M5 * uw1 + M8 * uw2;
+  double dD0 = M0 * ww0 + M3 * ww1 + M6 * ww2;
+  double dD1 = M1 * ww0 + M4 * ww1 + M7 * ww2;
+  double dD2 = M2 * ww0 + M5 * ww1 + M8 * ww2;
+  double axis = C(MJR_AXIS), beta = C(MJR_BETA);
+  double act = C(MJR_MUSCLE_P) * ep + C(MJR_MUSCLE_M) * em;
+  double rest = n < ndriven ? L + act : L;
+  int x = axis == 0.0, y = axis == 1.0, z = axis == 2.0;
+  double ks = C(MJR_K_SHEAR), kb = C(MJR_K_BEND), kt = C(MJR_K_TWIST);
+  double B0 = (x ? kt : kb) * (gain * rv0 + beta * dD0);
+  double B1 = (y ? kt : kb) * (gain * rv1 + beta * dD1);
+  double B2 = (z ? kt : kb) * (gain * rv2 + beta * dD2);
+  /* axial: the tendons' own law along the axis, l = d[axis]; damping linear */
+  double l = x ? d0 : (y ? d1 : d2), dl = x ? dd0 : (y ? dd1 : dd2);
+  double lat2 = C(MJR_LAW_LAT2);
+  double s_now = sqrt(l * l + lat2), s_rest = sqrt(rest * rest + lat2);
+  double axial = -C(MJR_LAW_K0) * (l - rest) - beta * C(MJR_K_AXIAL) * dl;
+  double stiffening = C(MJR_LAW_KD) * (s_now - s_rest) * l / s_now;
+  axial = s_now > 0.0 ? axial - stiffening : axial;
+  double F0 = x ? axial : -ks * (d0 + beta * dd0);
+  double F1 = y ? axial : -ks * (d1 + beta * dd1);
+  double F2 = z ? axial : -ks * (d2 + beta * dd2);
+  /* T_i = -(d x F)/2 + B, T_j = -(d x F)/2 - B */
+  double c0 = -0.5 * (d1 * F2 - d2 * F1);
+  double c1 = -0.5 * (d2 * F0 - d0 * F2);
+  double c2 = -0.5 * (d0 * F1 - d1 * F0);
+  double Ti0 = c0 + B0, Ti1 = c1 + B1, Ti2 = c2 + B2;
+  double Tj0 = c0 - B0, Tj1 = c1 - B1, Tj2 = c2 - B2;
+  /* back to world: M x */
+  OUT(MJR_F + 0) = M0 * F0 + M1 * F1 + M2 * F2;
+  OUT(MJR_F + 1) = M3 * F0 + M4 * F1 + M5 * F2;
+  OUT(MJR_F + 2) = M6 * F0 + M7 * F1 + M8 * F2;
+  OUT(MJR_TI + 0) = M0 * Ti0 + M1 * Ti1 + M2 * Ti2;
+  OUT(MJR_TI + 1) = M3 * Ti0 + M4 * Ti1 + M5 * Ti2;
+  OUT(MJR_TI + 2) = M6 * Ti0 + M7 * Ti1 + M8 * Ti2;
+  OUT(MJR_TJ + 0) = M0 * Tj0 + M1 * Tj1 + M2 * Tj2;
+  OUT(MJR_TJ + 1) = M3 * Tj0 + M4 * Tj1 + M5 * Tj2;
+  OUT(MJR_TJ + 2) = M6 * Tj0 + M7 * Tj1 + M8 * Tj2;
+#undef C
+#undef IN
+#undef OUT
 }
 
 /* Beam bonds: one co-rotated beam element per face bond, with the linear stiffness of the
@@ -199,91 +297,43 @@ static inline void to_frame(const double* R, const double* x, double* out) {
    each displacement plus beta times its rate (rates in the frame turning with the mean
    angular velocity; the axial damping linear, beta k_a). Linearised this is the
    Euler-Bernoulli (k_s = E L) or Timoshenko (k_s = G L) beam of the tendons; momentum and
-   angular momentum are conserved exactly (T_i + T_j + d x F_j = 0). */
-static void beam_bonds(const mjrVoxels* v, double ep, double em) {
-  double L = v->voxel_size;
-  for (int n = 0; n < v->nbond; n++) {
-    int i = v->bonds[2 * n], j = v->bonds[2 * n + 1], axis = v->axis[n];
-    double *si = v->scratch + SW * i, *sj = v->scratch + SW * j;
-    const double *qi = si + 24, *qj = sj + 24;
-    const double* k = v->stiffness + 4 * n;
-    double beta = v->beta[n];
-    /* r = q_i^-1 q_j on the short way round, its rotation vector Delta, its half h */
-    double rw = qi[0] * qj[0] + qi[1] * qj[1] + qi[2] * qj[2] + qi[3] * qj[3];
-    double rv[3] = {qi[0] * qj[1] - qj[0] * qi[1] - (qi[2] * qj[3] - qi[3] * qj[2]),
-                    qi[0] * qj[2] - qj[0] * qi[2] - (qi[3] * qj[1] - qi[1] * qj[3]),
-                    qi[0] * qj[3] - qj[0] * qi[3] - (qi[1] * qj[2] - qi[2] * qj[1])};
-    if (rw < 0.0) {
-      rw = -rw;
-      rv[0] = -rv[0];
-      rv[1] = -rv[1];
-      rv[2] = -rv[2];
+   angular momentum are conserved exactly (T_i + T_j + d x F_j = 0).
+   Three passes: gather each bond's voxel states, the arithmetic of all bonds as one
+   vectorised loop (beam_bond), the forces added to the voxels in bond order. */
+static void beam_bonds(mjrVoxels* v, double ep, double em) {
+  const mjrBeams* b = &v->beam;
+  const size_t nb = (size_t)v->nbond, ndriven = (size_t)v->ndriven, stride = b->stride;
+  const double L = v->voxel_size;
+  const double* restrict c = b->constants;
+  double* restrict in = b->inputs;
+  double* restrict out = b->outputs;
+  for (size_t n = 0; n < nb; n++) {
+    const double* si = v->scratch + SW * v->bonds[2 * n];
+    const double* sj = v->scratch + SW * v->bonds[2 * n + 1];
+    for (int a = 0; a < 4; a++) {
+      in[(MJR_QI + a) * stride + n] = si[24 + a];
+      in[(MJR_QJ + a) * stride + n] = sj[24 + a];
     }
-    double s2 = rv[0] * rv[0] + rv[1] * rv[1] + rv[2] * rv[2];
-    /* angle = 2 asin(|v|): 2 asin(s)/s to 1e-7 for s < 0.3 (35-degree bends), exact above */
-    double gain;
-    if (s2 < 0.09) {
-      gain = 2.0 + s2 * (1.0 / 3.0 + s2 * (0.15 + s2 * (5.0 / 56.0 + s2 * 35.0 / 576.0)));
-    } else {
-      double sn = sqrt(s2);
-      gain = 2.0 * asin(sn < 1.0 ? sn : 1.0) / sn;
-    }
-    double hn = 1.0 / sqrt((1.0 + rw) * (1.0 + rw) + s2);
-    double hw = (1.0 + rw) * hn, hv[3] = {rv[0] * hn, rv[1] * hn, rv[2] * hn};
-    /* mid frame q_m = q_i h as a rotation matrix (mju_quat2Mat) */
-    double mw = qi[0] * hw - qi[1] * hv[0] - qi[2] * hv[1] - qi[3] * hv[2];
-    double mx = qi[0] * hv[0] + qi[1] * hw + qi[2] * hv[2] - qi[3] * hv[1];
-    double my = qi[0] * hv[1] + qi[2] * hw + qi[3] * hv[0] - qi[1] * hv[2];
-    double mz = qi[0] * hv[2] + qi[3] * hw + qi[1] * hv[1] - qi[2] * hv[0];
-    double M[9];
-    M[0] = mw * mw + mx * mx - my * my - mz * mz;
-    M[4] = mw * mw - mx * mx + my * my - mz * mz;
-    M[8] = mw * mw - mx * mx - my * my + mz * mz;
-    M[1] = 2 * (mx * my - mw * mz);
-    M[2] = 2 * (mx * mz + mw * my);
-    M[3] = 2 * (mx * my + mw * mz);
-    M[5] = 2 * (my * mz - mw * mx);
-    M[6] = 2 * (mx * mz - mw * my);
-    M[7] = 2 * (my * mz + mw * mx);
-    double dw[3], uw[3], ww[3], wm[3];
     for (int a = 0; a < 3; a++) {
-      dw[a] = sj[a] - si[a];
-      ww[a] = sj[15 + a] - si[15 + a];
-      wm[a] = 0.5 * (sj[15 + a] + si[15 + a]);
+      in[(MJR_DP + a) * stride + n] = sj[a] - si[a];
+      in[(MJR_DV + a) * stride + n] = sj[12 + a] - si[12 + a];
+      in[(MJR_DW + a) * stride + n] = sj[15 + a] - si[15 + a];
+      in[(MJR_WM + a) * stride + n] = 0.5 * (sj[15 + a] + si[15 + a]);
     }
-    /* velocity of j relative to i as seen in the mid frame: v_j - v_i - w_m x d */
-    cross(wm, dw, uw);
-    for (int a = 0; a < 3; a++) uw[a] = sj[12 + a] - si[12 + a] - uw[a];
-    double d[3], dd[3], dD[3];
-    to_frame(M, dw, d);
-    to_frame(M, uw, dd);
-    to_frame(M, ww, dD);
-    double rest = L;
-    if (n < v->ndriven) rest += v->muscle[2 * n] * ep + v->muscle[2 * n + 1] * em;
-    double F[3], B[3], Ti[3], Tj[3], dF[3];
+  }
+#pragma GCC ivdep /* rows of one block never overlap: no dependence between bonds */
+  for (size_t n = 0; n < nb; n++) beam_bond(c, in, out, stride, n, L, ep, em, ndriven, 0);
+  for (size_t n = 0; n < nb; n++) { /* large bends: asin */
+    if (out[MJR_S2 * stride + n] >= 0.09) beam_bond(c, in, out, stride, n, L, ep, em, ndriven, 1);
+  }
+  for (size_t n = 0; n < nb; n++) {
+    double* si = v->scratch + SW * v->bonds[2 * n];
+    double* sj = v->scratch + SW * v->bonds[2 * n + 1];
     for (int a = 0; a < 3; a++) {
-      double rot = gain * rv[a] + beta * dD[a];
-      F[a] = a == axis ? 0.0 : -k[1] * (d[a] + beta * dd[a]);
-      B[a] = (a == axis ? k[3] : k[2]) * rot;
-    }
-    /* axial: the tendons' own law along the axis, l = d[axis]; damping linear */
-    const double* law = v->law + 3 * n;
-    double l = d[axis], lat2 = law[2];
-    double s_now = sqrt(l * l + lat2), s_rest = sqrt(rest * rest + lat2);
-    F[axis] = -law[0] * (l - rest) - beta * k[0] * dd[axis];
-    if (s_now > 0.0) F[axis] -= law[1] * (s_now - s_rest) * l / s_now;
-    cross(d, F, dF);
-    for (int a = 0; a < 3; a++) {
-      Ti[a] = -0.5 * dF[a] + B[a];
-      Tj[a] = -0.5 * dF[a] - B[a];
-    }
-    /* back to world: M x */
-    for (int a = 0; a < 3; a++) {
-      double f = M[3 * a] * F[0] + M[3 * a + 1] * F[1] + M[3 * a + 2] * F[2];
-      sj[18 + a] += f;
-      si[18 + a] -= f;
-      si[21 + a] += M[3 * a] * Ti[0] + M[3 * a + 1] * Ti[1] + M[3 * a + 2] * Ti[2];
-      sj[21 + a] += M[3 * a] * Tj[0] + M[3 * a + 1] * Tj[1] + M[3 * a + 2] * Tj[2];
+      sj[18 + a] += out[(MJR_F + a) * stride + n];
+      si[18 + a] -= out[(MJR_F + a) * stride + n];
+      si[21 + a] += out[(MJR_TI + a) * stride + n];
+      sj[21 + a] += out[(MJR_TJ + a) * stride + n];
     }
   }
 }

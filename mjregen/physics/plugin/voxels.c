@@ -106,7 +106,34 @@ static void release(mjrVoxels* v) {
                     v->mu_k, v->grid, v->collides, v->scratch, v->stick_next, v->coll_ref,
                     v->coll_pairs};
   for (size_t i = 0; i < sizeof(arrays) / sizeof(arrays[0]); i++) free(arrays[i]);
+  free(v->beam.constants);
+  free(v->beam.inputs);
+  free(v->beam.outputs);
   free(v);
+}
+
+/* The beam bonds' arrays (mjrBeams) from the parsed per-bond rows. */
+static void arrange_beams(mjrVoxels* v) {
+  mjrBeams* b = &v->beam;
+  size_t nb = (size_t)v->nbond, stride = nb > 0 ? nb : 1;
+  b->stride = stride;
+  b->constants = (double*)calloc(stride * MJR_BEAM_CONSTANTS, sizeof(double));
+  b->inputs = (double*)calloc(stride * MJR_BEAM_INPUTS, sizeof(double));
+  b->outputs = (double*)calloc(stride * MJR_BEAM_OUTPUTS, sizeof(double));
+  double* c = b->constants;
+  for (size_t n = 0; n < nb; n++) {
+    c[MJR_AXIS * stride + n] = v->axis[n];
+    c[MJR_K_AXIAL * stride + n] = v->stiffness[4 * n];
+    c[MJR_K_SHEAR * stride + n] = v->stiffness[4 * n + 1];
+    c[MJR_K_BEND * stride + n] = v->stiffness[4 * n + 2];
+    c[MJR_K_TWIST * stride + n] = v->stiffness[4 * n + 3];
+    c[MJR_BETA * stride + n] = v->beta[n];
+    c[MJR_LAW_K0 * stride + n] = v->law[3 * n];
+    c[MJR_LAW_KD * stride + n] = v->law[3 * n + 1];
+    c[MJR_LAW_LAT2 * stride + n] = v->law[3 * n + 2];
+    c[MJR_MUSCLE_P * stride + n] = v->muscle[2 * n];
+    c[MJR_MUSCLE_M * stride + n] = v->muscle[2 * n + 1];
+  }
 }
 
 /* Resolve the voxels' bodies and joints. */
@@ -307,6 +334,7 @@ static mjrVoxels* configure(const mjModel* m, int instance, char* error, int err
     if (v->half_p[i] > largest) largest = v->half_p[i];
     if (v->half_m[i] > largest) largest = v->half_m[i];
   }
+  if (v->beams) arrange_beams(v);
   v->collide = v->coll_radius > 0 && colliders > 1;
   v->coll_reach = 2.0 * v->coll_radius * (1.0 + 2.0 * largest / v->voxel_size);
   v->scratch = (double*)calloc((size_t)MJR_SCRATCH * n, sizeof(double));

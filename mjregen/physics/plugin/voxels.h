@@ -55,6 +55,34 @@ enum { MJR_NATTRIBUTE = 0 MJR_ATTRIBUTES(MJR_COUNT_ATTRIBUTE) };
 #define MJR_SCRATCH 28 /* doubles per voxel: pos 3, R 9, vel 3, omega 3 (world), force 3,
                           torque 3, quaternion 4 (w, x, y, z) */
 
+/* Beam bonds as a structure of arrays, so that the per-bond arithmetic runs as one loop the
+   compiler vectorises: three blocks of rows of `stride` (= nbond) doubles, row r of block X
+   at X + r * stride. Constants from the configuration; each step's inputs (gathered from
+   the voxels) and outputs (scattered back in bond order). */
+enum { /* constants */
+  MJR_AXIS,                                    /* 0, 1, 2 (doubles: the data's width) */
+  MJR_K_AXIAL, MJR_K_SHEAR, MJR_K_BEND, MJR_K_TWIST, /* N/m, N/m, N m, N m */
+  MJR_BETA,                                    /* s */
+  MJR_LAW_K0, MJR_LAW_KD, MJR_LAW_LAT2,        /* axial law: N/m, N/m, m^2 */
+  MJR_MUSCLE_P, MJR_MUSCLE_M,                  /* m: rest L + muscle_p e+ + muscle_m e- */
+  MJR_BEAM_CONSTANTS
+};
+enum { /* inputs */
+  MJR_QI = 0, MJR_QJ = 4,                      /* unit quaternions of voxels i and j */
+  MJR_DP = 8, MJR_DV = 11, MJR_DW = 14, MJR_WM = 17, /* p_j - p_i, v_j - v_i, w_j - w_i,
+                                                  (w_i + w_j) / 2 (world) */
+  MJR_BEAM_INPUTS = 20
+};
+enum { /* outputs */
+  MJR_F = 0, MJR_TI = 3, MJR_TJ = 6,           /* world force on j (-F on i), torques */
+  MJR_S2 = 9,                                  /* |vector part of q_i^-1 q_j|^2 */
+  MJR_BEAM_OUTPUTS = 10
+};
+typedef struct {
+  size_t stride;
+  double *constants, *inputs, *outputs;
+} mjrBeams;
+
 /* One robot's configuration and work space, per mjData (d->plugin_data[instance]). */
 typedef struct {
   int dim, nvox, nbond, ntendon, ndriven;  /* driven bonds: 0 .. ndriven-1 */
@@ -74,6 +102,7 @@ typedef struct {
   double* stiffness;      /* (nbond, 4) */
   double* law;            /* (nbond, 3) */
   double* beta;           /* (nbond) */
+  mjrBeams beam;          /* beams: the bonds as arrays (from the three above) */
   int* tendon_bond;       /* (ntendon) */
   double* sites;          /* (ntendon, 6) */
   double* tk;             /* (ntendon) */
