@@ -3,13 +3,17 @@
    (penalty spring and damper with static/kinetic friction and a stick state),
    self-collision and drag. Everything is added to qfrc_passive; MuJoCo (or step.c)
    integrates. Only the state (qpos, qvel, time, the stick flags) and the instance's
-   configuration are read. */
+   configuration are read.
+
+   Per-voxel data are rows of nvox doubles (structure of arrays: voxels.h), so that the
+   per-voxel and per-bond arithmetic runs as loops the compiler vectorises. */
 #include <math.h>
 #include <string.h>
 
 #include "voxels.h"
 
-#define SW MJR_SCRATCH
+/* row k of the voxels' scratch: nvox doubles */
+#define ROW(v, k) ((v)->scratch + (size_t)(k) * (size_t)(v)->nvox)
 
 /* signed strains (e+, e-) of the two muscle phases at time t */
 static void strains(const mjrVoxels* v, double t, double* ep, double* em) {
@@ -34,47 +38,63 @@ static inline void cross(const double* a, const double* b, double* out) {
   out[2] = a[0] * b[1] - a[1] * b[0];
 }
 
-/* frames and velocities of all voxels from qpos/qvel (no MuJoCo kinematics needed) */
-static void voxel_states(const mjrVoxels* v, const mjData* d) {
-  for (int n = 0; n < v->nvox; n++) {
-    double* s = v->scratch + SW * n;
-    double *p = s, *R = s + 3, *vel = s + 12, *w = s + 15;
-    memset(s + 12, 0, 12 * sizeof(double));
+void mjr_load_state(mjrVoxels* v, const mjData* d) {
+  const size_t N = (size_t)v->nvox;
+  int nq = v->dim == 3 ? 7 : 3, nv = v->dim == 3 ? 6 : 3;
+  double* q = v->state + MJR_QPOS * N;
+  double* w = v->state + MJR_QVEL * N;
+  for (size_t n = 0; n < N; n++) {
     int qa = v->qadr[n], va = v->vadr[n];
-    if (qa < 0) {
-      memcpy(p, v->pos0 + 3 * n, 3 * sizeof(double));
-      memset(R, 0, 9 * sizeof(double));
-      R[0] = R[4] = R[8] = 1.0;
-      memset(vel, 0, 6 * sizeof(double));
-      s[24] = 1.0;
-      s[25] = s[26] = s[27] = 0.0;
-      continue;
+    for (int k = 0; k < nq; k++) q[k * N + n] = qa < 0 ? 0.0 : d->qpos[qa + k];
+    for (int k = 0; k < nv; k++) w[k * N + n] = va < 0 ? 0.0 : d->qvel[va + k];
+    if (qa < 0 && v->dim == 3) { /* welded: at its body position, unturned */
+      for (int a = 0; a < 3; a++) q[a * N + n] = v->pos0[3 * n + a];
+      q[3 * N + n] = 1.0;
     }
-    const double* q = d->qpos + qa;
-    const double* qv = d->qvel + va;
-    if (v->dim == 3) {
-      p[0] = q[0];
-      p[1] = q[1];
-      p[2] = q[2];
-      double qw = q[3], qx = q[4], qy = q[5], qz = q[6];
+  }
+}
+
+void mjr_store_state(const mjrVoxels* v, mjData* d) {
+  const size_t N = (size_t)v->nvox;
+  int nq = v->dim == 3 ? 7 : 3, nv = v->dim == 3 ? 6 : 3;
+  const double* q = v->state + MJR_QPOS * N;
+  const double* w = v->state + MJR_QVEL * N;
+  for (size_t n = 0; n < N; n++) {
+    int qa = v->qadr[n], va = v->vadr[n];
+    if (qa < 0) continue;
+    for (int k = 0; k < nq; k++) d->qpos[qa + k] = q[k * N + n];
+    for (int k = 0; k < nv; k++) d->qvel[va + k] = w[k * N + n];
+  }
+}
+
+/* frames and velocities of all voxels from the joint state rows; forces and torques zeroed.
+   A welded voxel's rows hold its body position at rest (mjr_load_state). */
+static void voxel_states(mjrVoxels* v) {
+  const size_t N = (size_t)v->nvox;
+  const double* restrict q = v->state + MJR_QPOS * N;
+  const double* restrict qv = v->state + MJR_QVEL * N;
+  double* restrict s = v->scratch;
+  memset(s + MJR_FORCE * N, 0, 6 * N * sizeof(double)); /* force and torque rows */
+  if (v->dim == 3) {
+#pragma GCC ivdep /* rows never overlap */
+    for (size_t n = 0; n < N; n++) {
+      for (int a = 0; a < 3; a++) s[(MJR_P + a) * N + n] = q[a * N + n];
+      double qw = q[3 * N + n], qx = q[4 * N + n], qy = q[5 * N + n], qz = q[6 * N + n];
       double norm = sqrt(qw * qw + qx * qx + qy * qy + qz * qz);
-      if (norm < 1e-15) { /* MuJoCo's mju_normalize4: degenerate -> identity */
-        qw = 1.0;
-        qx = qy = qz = 0.0;
-      } else {
-        qw /= norm;
-        qx /= norm;
-        qy /= norm;
-        qz /= norm;
-      }
-      s[24] = qw;
-      s[25] = qx;
-      s[26] = qy;
-      s[27] = qz;
+      int degenerate = norm < 1e-15; /* MuJoCo's mju_normalize4: degenerate -> identity */
+      qw = degenerate ? 1.0 : qw / norm;
+      qx = degenerate ? 0.0 : qx / norm;
+      qy = degenerate ? 0.0 : qy / norm;
+      qz = degenerate ? 0.0 : qz / norm;
+      s[(MJR_QUAT + 0) * N + n] = qw;
+      s[(MJR_QUAT + 1) * N + n] = qx;
+      s[(MJR_QUAT + 2) * N + n] = qy;
+      s[(MJR_QUAT + 3) * N + n] = qz;
       /* mju_quat2Mat */
       double q00 = qw * qw, q01 = qw * qx, q02 = qw * qy, q03 = qw * qz;
       double q11 = qx * qx, q12 = qx * qy, q13 = qx * qz;
       double q22 = qy * qy, q23 = qy * qz, q33 = qz * qz;
+      double R[9];
       R[0] = q00 + q11 - q22 - q33;
       R[4] = q00 - q11 + q22 - q33;
       R[8] = q00 - q11 - q22 + q33;
@@ -84,61 +104,83 @@ static void voxel_states(const mjrVoxels* v, const mjData* d) {
       R[5] = 2 * (q23 - q01);
       R[6] = 2 * (q13 - q02);
       R[7] = 2 * (q23 + q01);
-      vel[0] = qv[0];
-      vel[1] = qv[1];
-      vel[2] = qv[2];
+      for (int k = 0; k < 9; k++) s[(MJR_R + k) * N + n] = R[k];
+      for (int a = 0; a < 3; a++) s[(MJR_VEL + a) * N + n] = qv[a * N + n];
       /* free joint: angular velocity in the body frame, to world */
-      w[0] = R[0] * qv[3] + R[1] * qv[4] + R[2] * qv[5];
-      w[1] = R[3] * qv[3] + R[4] * qv[4] + R[5] * qv[5];
-      w[2] = R[6] * qv[3] + R[7] * qv[4] + R[8] * qv[5];
-    } else {
-      /* slide x, slide z, hinge y at the body origin */
-      const double* p0 = v->pos0 + 3 * n;
-      p[0] = p0[0] + q[0];
-      p[1] = p0[1];
-      p[2] = p0[2] + q[1];
-      double half = 0.5 * q[2];
-      double qw = cos(half), qy = sin(half);
-      s[24] = qw;
-      s[25] = 0.0;
-      s[26] = qy;
-      s[27] = 0.0;
-      double q00 = qw * qw, q02 = qw * qy, q22 = qy * qy;
-      memset(R, 0, 9 * sizeof(double));
-      R[0] = q00 - q22;
-      R[4] = q00 + q22;
-      R[8] = q00 - q22;
-      R[2] = 2 * q02;
-      R[6] = -2 * q02;
-      vel[0] = qv[0];
-      vel[1] = 0.0;
-      vel[2] = qv[1];
-      w[0] = 0.0;
-      w[1] = qv[2];
-      w[2] = 0.0;
+      double o0 = qv[3 * N + n], o1 = qv[4 * N + n], o2 = qv[5 * N + n];
+      s[(MJR_W + 0) * N + n] = R[0] * o0 + R[1] * o1 + R[2] * o2;
+      s[(MJR_W + 1) * N + n] = R[3] * o0 + R[4] * o1 + R[5] * o2;
+      s[(MJR_W + 2) * N + n] = R[6] * o0 + R[7] * o1 + R[8] * o2;
     }
+    return;
+  }
+  for (size_t n = 0; n < N; n++) {
+    /* slide x, slide z, hinge y at the body origin */
+    const double* p0 = v->pos0 + 3 * n;
+    s[(MJR_P + 0) * N + n] = p0[0] + q[n];
+    s[(MJR_P + 1) * N + n] = p0[1];
+    s[(MJR_P + 2) * N + n] = p0[2] + q[N + n];
+    double half = 0.5 * q[2 * N + n];
+    double qw = cos(half), qy = sin(half);
+    s[(MJR_QUAT + 0) * N + n] = qw;
+    s[(MJR_QUAT + 1) * N + n] = 0.0;
+    s[(MJR_QUAT + 2) * N + n] = qy;
+    s[(MJR_QUAT + 3) * N + n] = 0.0;
+    double q00 = qw * qw, q02 = qw * qy, q22 = qy * qy;
+    double R[9] = {q00 - q22, 0.0, 2 * q02, 0.0, q00 + q22, 0.0, -2 * q02, 0.0, q00 - q22};
+    for (int k = 0; k < 9; k++) s[(MJR_R + k) * N + n] = R[k];
+    s[(MJR_VEL + 0) * N + n] = qv[n];
+    s[(MJR_VEL + 1) * N + n] = 0.0;
+    s[(MJR_VEL + 2) * N + n] = qv[N + n];
+    s[(MJR_W + 0) * N + n] = 0.0;
+    s[(MJR_W + 1) * N + n] = qv[2 * N + n];
+    s[(MJR_W + 2) * N + n] = 0.0;
+  }
+}
+
+/* x = rows k, k+1, k+2 of voxel n */
+static inline void get3(const mjrVoxels* v, int k, int n, double* x) {
+  const double* row = ROW(v, k) + n;
+  size_t N = (size_t)v->nvox;
+  x[0] = row[0];
+  x[1] = row[N];
+  x[2] = row[2 * N];
+}
+
+/* rows k, k+1, k+2 of voxel n += sign x */
+static inline void add3(mjrVoxels* v, int k, int n, double sign, const double* x) {
+  double* row = ROW(v, k) + n;
+  size_t N = (size_t)v->nvox;
+  if (sign > 0) {
+    row[0] += x[0];
+    row[N] += x[1];
+    row[2 * N] += x[2];
+  } else {
+    row[0] -= x[0];
+    row[N] -= x[1];
+    row[2 * N] -= x[2];
   }
 }
 
 /* The bond's 8 (3D) or 4 (2D) spring tendons between sites fixed in the two voxels, with
    stiffness-proportional dampers; a driven bond's tendons have the rest length
    sqrt(l0^2 + d^2), l0 its actuated axial rest length, d the tendon's lateral extent. */
-static void tendon_bonds(const mjrVoxels* v, double ep, double em) {
+static void tendon_bonds(mjrVoxels* v, double ep, double em) {
   int t = 0;
   while (t < v->ntendon) {
     int bond = v->tendon_bond[t];
     int i = v->bonds[2 * bond], j = v->bonds[2 * bond + 1];
-    double* si = v->scratch + SW * i;
-    double* sj = v->scratch + SW * j;
     double pi[3], pj[3], Ri[9], Rj[9], ui[3], uj[3], wi[3], wj[3];
-    memcpy(pi, si, 3 * sizeof(double));
-    memcpy(pj, sj, 3 * sizeof(double));
-    memcpy(Ri, si + 3, 9 * sizeof(double));
-    memcpy(Rj, sj + 3, 9 * sizeof(double));
-    memcpy(ui, si + 12, 3 * sizeof(double));
-    memcpy(uj, sj + 12, 3 * sizeof(double));
-    memcpy(wi, si + 15, 3 * sizeof(double));
-    memcpy(wj, sj + 15, 3 * sizeof(double));
+    get3(v, MJR_P, i, pi);
+    get3(v, MJR_P, j, pj);
+    for (int k = 0; k < 9; k += 3) {
+      get3(v, MJR_R + k, i, Ri + k);
+      get3(v, MJR_R + k, j, Rj + k);
+    }
+    get3(v, MJR_VEL, i, ui);
+    get3(v, MJR_VEL, j, uj);
+    get3(v, MJR_W, i, wi);
+    get3(v, MJR_W, j, wj);
     double axial = 0.0;
     int driven = bond < v->ndriven;
     if (driven) axial = v->voxel_size + v->muscle[2 * bond] * ep + v->muscle[2 * bond + 1] * em;
@@ -169,12 +211,10 @@ static void tendon_bonds(const mjrVoxels* v, double ep, double em) {
       cross(ri, F, tmp);
       for (int a = 0; a < 3; a++) Ti[a] -= tmp[a];
     }
-    for (int a = 0; a < 3; a++) {
-      sj[18 + a] += Fsum[a];
-      si[18 + a] -= Fsum[a];
-      sj[21 + a] += Tj[a];
-      si[21 + a] += Ti[a];
-    }
+    add3(v, MJR_FORCE, j, 1, Fsum);
+    add3(v, MJR_FORCE, i, -1, Fsum);
+    add3(v, MJR_TORQUE, j, 1, Tj);
+    add3(v, MJR_TORQUE, i, 1, Ti);
   }
 }
 
@@ -307,18 +347,19 @@ static void beam_bonds(mjrVoxels* v, double ep, double em) {
   const double* restrict c = b->constants;
   double* restrict in = b->inputs;
   double* restrict out = b->outputs;
+  const size_t N = (size_t)v->nvox;
+  const double* restrict s = v->scratch;
   for (size_t n = 0; n < nb; n++) {
-    const double* si = v->scratch + SW * v->bonds[2 * n];
-    const double* sj = v->scratch + SW * v->bonds[2 * n + 1];
+    size_t i = (size_t)v->bonds[2 * n], j = (size_t)v->bonds[2 * n + 1];
     for (int a = 0; a < 4; a++) {
-      in[(MJR_QI + a) * stride + n] = si[24 + a];
-      in[(MJR_QJ + a) * stride + n] = sj[24 + a];
+      in[(MJR_QI + a) * stride + n] = s[(MJR_QUAT + a) * N + i];
+      in[(MJR_QJ + a) * stride + n] = s[(MJR_QUAT + a) * N + j];
     }
     for (int a = 0; a < 3; a++) {
-      in[(MJR_DP + a) * stride + n] = sj[a] - si[a];
-      in[(MJR_DV + a) * stride + n] = sj[12 + a] - si[12 + a];
-      in[(MJR_DW + a) * stride + n] = sj[15 + a] - si[15 + a];
-      in[(MJR_WM + a) * stride + n] = 0.5 * (sj[15 + a] + si[15 + a]);
+      in[(MJR_DP + a) * stride + n] = s[(MJR_P + a) * N + j] - s[(MJR_P + a) * N + i];
+      in[(MJR_DV + a) * stride + n] = s[(MJR_VEL + a) * N + j] - s[(MJR_VEL + a) * N + i];
+      in[(MJR_DW + a) * stride + n] = s[(MJR_W + a) * N + j] - s[(MJR_W + a) * N + i];
+      in[(MJR_WM + a) * stride + n] = 0.5 * (s[(MJR_W + a) * N + j] + s[(MJR_W + a) * N + i]);
     }
   }
 #pragma GCC ivdep /* rows of one block never overlap: no dependence between bonds */
@@ -326,27 +367,30 @@ static void beam_bonds(mjrVoxels* v, double ep, double em) {
   for (size_t n = 0; n < nb; n++) { /* large bends: asin */
     if (out[MJR_S2 * stride + n] >= 0.09) beam_bond(c, in, out, stride, n, L, ep, em, ndriven, 1);
   }
+  double* force = v->scratch + MJR_FORCE * N;
+  double* torque = v->scratch + MJR_TORQUE * N;
   for (size_t n = 0; n < nb; n++) {
-    double* si = v->scratch + SW * v->bonds[2 * n];
-    double* sj = v->scratch + SW * v->bonds[2 * n + 1];
+    size_t i = (size_t)v->bonds[2 * n], j = (size_t)v->bonds[2 * n + 1];
     for (int a = 0; a < 3; a++) {
-      sj[18 + a] += out[(MJR_F + a) * stride + n];
-      si[18 + a] -= out[(MJR_F + a) * stride + n];
-      si[21 + a] += out[(MJR_TI + a) * stride + n];
-      sj[21 + a] += out[(MJR_TJ + a) * stride + n];
+      force[a * N + j] += out[(MJR_F + a) * stride + n];
+      force[a * N + i] -= out[(MJR_F + a) * stride + n];
+      torque[a * N + i] += out[(MJR_TI + a) * stride + n];
+      torque[a * N + j] += out[(MJR_TJ + a) * stride + n];
     }
   }
 }
 
 /* Drag on every voxel (the paper engine's "slow" damping): -drag_lin v on the centre and
-   -drag_rot w (MuJoCo's Stokes drag of a cube). */
-static void voxel_drag(const mjrVoxels* v) {
-  for (int n = 0; n < v->nvox; n++) {
-    if (v->vadr[n] < 0) continue;
-    double* s = v->scratch + SW * n;
-    for (int a = 0; a < 3; a++) {
-      s[18 + a] -= v->drag_lin * s[12 + a];
-      s[21 + a] -= v->drag_rot * s[15 + a];
+   -drag_rot w (MuJoCo's Stokes drag of a cube). A welded voxel's velocities are 0. */
+static void voxel_drag(mjrVoxels* v) {
+  const size_t N = (size_t)v->nvox;
+  double* restrict s = v->scratch;
+  const double lin = v->drag_lin, rot = v->drag_rot;
+  for (int a = 0; a < 3; a++) {
+#pragma GCC ivdep /* rows never overlap */
+    for (size_t n = 0; n < N; n++) {
+      s[(MJR_FORCE + a) * N + n] -= lin * s[(MJR_VEL + a) * N + n];
+      s[(MJR_TORQUE + a) * N + n] -= rot * s[(MJR_W + a) * N + n];
     }
   }
 }
@@ -371,7 +415,8 @@ static void self_collision(mjrVoxels* v, double ep, double em) {
   int rebuild = !v->coll_built;
   for (int i = 0; i < n && !rebuild; i++) {
     if (!v->collides[i]) continue;
-    const double* p = v->scratch + SW * i;
+    double p[3];
+    get3(v, MJR_P, i, p);
     const double* r = v->coll_ref + 3 * i;
     double dx = p[0] - r[0], dy = p[1] - r[1], dz = p[2] - r[2];
     if (dx * dx + dy * dy + dz * dz > half_skin2) rebuild = 1;
@@ -381,10 +426,11 @@ static void self_collision(mjrVoxels* v, double ep, double em) {
     int found = 0;
     for (int i = 0; i < n; i++) {
       if (!v->collides[i]) continue;
-      const double* pi = v->scratch + SW * i;
+      double pi[3], pj[3];
+      get3(v, MJR_P, i, pi);
       for (int j = i + 1; j < n; j++) {
         if (!v->collides[j] || grid_neighbours(v->grid + 3 * i, v->grid + 3 * j)) continue;
-        const double* pj = v->scratch + SW * j;
+        get3(v, MJR_P, j, pj);
         double dx = pj[0] - pi[0], dy = pj[1] - pi[1], dz = pj[2] - pi[2];
         if (dx * dx + dy * dy + dz * dz < cut2) {
           v->coll_pairs[2 * found] = i;
@@ -393,15 +439,17 @@ static void self_collision(mjrVoxels* v, double ep, double em) {
         }
       }
     }
-    for (int i = 0; i < n; i++) memcpy(v->coll_ref + 3 * i, v->scratch + SW * i, 3 * sizeof(double));
+    for (int i = 0; i < n; i++) get3(v, MJR_P, i, v->coll_ref + 3 * i);
     v->coll_count = found;
     v->coll_built = 1;
   }
   double two_over_l = 2.0 / v->voxel_size;
   for (int k = 0; k < v->coll_count; k++) {
     int i = v->coll_pairs[2 * k], j = v->coll_pairs[2 * k + 1];
-    double *si = v->scratch + SW * i, *sj = v->scratch + SW * j;
-    double d[3] = {sj[0] - si[0], sj[1] - si[1], sj[2] - si[2]};
+    double pi[3], pj[3], vi[3], vj[3];
+    get3(v, MJR_P, i, pi);
+    get3(v, MJR_P, j, pj);
+    double d[3] = {pj[0] - pi[0], pj[1] - pi[1], pj[2] - pi[2]};
     double dist2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
     double scale_i = 1.0 + two_over_l * (v->half_p[i] * ep + v->half_m[i] * em);
     double scale_j = 1.0 + two_over_l * (v->half_p[j] * ep + v->half_m[j] * em);
@@ -410,15 +458,16 @@ static void self_collision(mjrVoxels* v, double ep, double em) {
     double dist = sqrt(dist2);
     double u[3] = {d[0] / dist, d[1] / dist, d[2] / dist};
     double closing = 0.0;
-    for (int a = 0; a < 3; a++) closing += u[a] * (sj[12 + a] - si[12 + a]);
+    get3(v, MJR_VEL, i, vi);
+    get3(v, MJR_VEL, j, vj);
+    for (int a = 0; a < 3; a++) closing += u[a] * (vj[a] - vi[a]);
     double k_pair = 2.0 / (1.0 / v->fk[i] + 1.0 / v->fk[j]);
     double c_pair = 2.0 / (1.0 / v->fc[i] + 1.0 / v->fc[j]);
     double f = k_pair * (contact - dist) - c_pair * closing;
     if (f <= 0.0) continue;
-    for (int a = 0; a < 3; a++) {
-      sj[18 + a] += f * u[a];
-      si[18 + a] -= f * u[a];
-    }
+    double push[3] = {f * u[0], f * u[1], f * u[2]};
+    add3(v, MJR_FORCE, j, 1, push);
+    add3(v, MJR_FORCE, i, -1, push);
   }
 }
 
@@ -441,28 +490,28 @@ static void engine_floor(const mjModel* m, const mjData* d, mjrVoxels* v, const 
   int planar = v->dim == 3;
   const double* gravity = m->opt.gravity;
   double dt = m->opt.timestep;
+  const size_t N = (size_t)v->nvox;
   for (int n = 0; n < v->nvox; n++) {
     int va = v->vadr[n];
     if (va < 0) continue;
-    double* s = v->scratch + SW * n;
     double* next = v->stick_next + n;
     double half = 0.5 * v->voxel_size + v->half_p[n] * ep + v->half_m[n] * em;
-    double pen = half - s[2];
+    double pen = half - ROW(v, MJR_P + 2)[n];
     if (pen < 0.0) {
       *next = 0.0;
       continue;
     }
-    const double* vel = s + 12;
-    double* F = s + 18;
+    const double* vel = ROW(v, MJR_VEL) + n; /* rows: vel[a * N] */
+    double* F = ROW(v, MJR_FORCE) + n;
     const double* xfrc = d->xfrc_applied + 6 * v->body[n];
     double normal = v->fk[n] * pen;
-    F[2] += normal - v->fc[n] * vel[2];
+    F[2 * N] += normal - v->fc[n] * vel[2 * N];
     double mass = m->body_mass[v->body[n]];
     double other[2] = {F[0] + d->qfrc_passive[va] + d->qfrc_applied[va] + xfrc[0]
                          + mass * gravity[0],
-                       planar ? F[1] + d->qfrc_passive[va + 1] + d->qfrc_applied[va + 1]
+                       planar ? F[N] + d->qfrc_passive[va + 1] + d->qfrc_applied[va + 1]
                                   + xfrc[1] + mass * gravity[1] : 0.0};
-    double vh[2] = {vel[0], planar ? vel[1] : 0.0};
+    double vh[2] = {vel[0], planar ? vel[N] : 0.0};
     double stop[2] = {-other[0] - mass * vh[0] / dt, -other[1] - mass * vh[1] / dt};
     int sticking = stick[n] != 0.0 && vh[0] * vh[0] + vh[1] * vh[1] <= KICKED * KICKED;
     if (sticking) {
@@ -472,7 +521,7 @@ static void engine_floor(const mjModel* m, const mjData* d, mjrVoxels* v, const 
       } else {
         *next = 1.0;
         F[0] += stop[0];
-        F[1] += stop[1];
+        F[N] += stop[1];
       }
       continue;
     }
@@ -490,17 +539,18 @@ static void engine_floor(const mjModel* m, const mjData* d, mjrVoxels* v, const 
     if (kinetic + work <= 0.0) {
       *next = 1.0;
       F[0] += stop[0];
-      F[1] += stop[1];
+      F[N] += stop[1];
     } else {
       *next = 0.0;
       F[0] += fric[0];
-      F[1] += fric[1];
+      F[N] += fric[1];
     }
   }
 }
 
-void mjr_forces(const mjModel* m, mjData* d, mjrVoxels* v, const mjtNum* stick, int network) {
-  voxel_states(v, d);
+void mjr_voxel_forces(const mjModel* m, mjData* d, mjrVoxels* v, const mjtNum* stick,
+                      int network) {
+  voxel_states(v);
   double ep = 0.0, em = 0.0;
   if (v->waves && !network) {
     if (v->ctrl_plus >= 0) {
@@ -522,12 +572,19 @@ void mjr_forces(const mjModel* m, mjData* d, mjrVoxels* v, const mjtNum* stick, 
     if (v->collide) self_collision(v, ep, em);
     if (v->floor) engine_floor(m, d, v, stick, ep, em);
   }
+}
+
+void mjr_forces(const mjModel* m, mjData* d, mjrVoxels* v, const mjtNum* stick, int network) {
+  mjr_load_state(v, d);
+  mjr_voxel_forces(m, d, v, stick, network);
   double* qfrc = d->qfrc_passive;
   for (int n = 0; n < v->nvox; n++) {
     int va = v->vadr[n];
     if (va < 0) continue;
-    const double* s = v->scratch + SW * n;
-    const double *R = s + 3, *F = s + 18, *T = s + 21;
+    double R[9], F[3], T[3];
+    for (int k = 0; k < 9; k += 3) get3(v, MJR_R + k, n, R + k);
+    get3(v, MJR_FORCE, n, F);
+    get3(v, MJR_TORQUE, n, T);
     if (v->dim == 3) {
       qfrc[va] += F[0];
       qfrc[va + 1] += F[1];

@@ -103,7 +103,7 @@ static void release(mjrVoxels* v) {
   void* arrays[] = {v->qadr, v->vadr, v->body, v->pos0, v->half_p, v->half_m, v->bonds,
                     v->axis, v->muscle, v->stiffness, v->law, v->beta, v->tendon_bond,
                     v->sites, v->tk, v->tc, v->trest, v->tlat2, v->fk, v->fc, v->mu_s,
-                    v->mu_k, v->grid, v->collides, v->scratch, v->stick_next, v->coll_ref,
+                    v->mu_k, v->grid, v->collides, v->state, v->scratch, v->stick_next, v->coll_ref,
                     v->coll_pairs};
   for (size_t i = 0; i < sizeof(arrays) / sizeof(arrays[0]); i++) free(arrays[i]);
   free(v->beam.constants);
@@ -337,6 +337,7 @@ static mjrVoxels* configure(const mjModel* m, int instance, char* error, int err
   if (v->beams) arrange_beams(v);
   v->collide = v->coll_radius > 0 && colliders > 1;
   v->coll_reach = 2.0 * v->coll_radius * (1.0 + 2.0 * largest / v->voxel_size);
+  v->state = (double*)calloc((size_t)MJR_STATE * n, sizeof(double));
   v->scratch = (double*)calloc((size_t)MJR_SCRATCH * n, sizeof(double));
   v->stick_next = (double*)calloc(n, sizeof(double));
   v->coll_ref = (double*)calloc(3 * n, sizeof(double));

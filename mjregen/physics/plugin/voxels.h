@@ -52,8 +52,14 @@
 #define MJR_COUNT_ATTRIBUTE(name) +1
 enum { MJR_NATTRIBUTE = 0 MJR_ATTRIBUTES(MJR_COUNT_ATTRIBUTE) };
 
-#define MJR_SCRATCH 28 /* doubles per voxel: pos 3, R 9, vel 3, omega 3 (world), force 3,
-                          torque 3, quaternion 4 (w, x, y, z) */
+/* Rows of the voxels' scratch (each nvox doubles), derived from the state each step:
+   position, rotation matrix (row-major), velocity, angular velocity (world), force and
+   torque (world, summed over the robot's forces), unit quaternion (w, x, y, z). */
+enum { MJR_P = 0, MJR_R = 3, MJR_VEL = 12, MJR_W = 15, MJR_FORCE = 18, MJR_TORQUE = 21,
+       MJR_QUAT = 24, MJR_SCRATCH = 28 };
+/* Rows of the voxels' joint state (each nvox doubles): qpos (3D: position, quaternion;
+   2D: x, z, angle) and qvel (3D: velocity, body-frame angular velocity; 2D: 3 rates). */
+enum { MJR_QPOS = 0, MJR_QVEL = 7, MJR_STATE = 13 };
 
 /* Beam bonds as a structure of arrays, so that the per-bond arithmetic runs as one loop the
    compiler vectorises: three blocks of rows of `stride` (= nbond) doubles, row r of block X
@@ -117,7 +123,8 @@ typedef struct {
   int* grid;              /* (nvox, 3) */
   int* collides;          /* (nvox) */
   double drag_lin, drag_rot;
-  double* scratch;        /* (nvox, MJR_SCRATCH) */
+  double* state;          /* (MJR_STATE, nvox): the joints' state as rows */
+  double* scratch;        /* (MJR_SCRATCH, nvox) */
   double* stick_next;     /* (nvox) stick flags after this step (copied to plugin_state
                              by `advance`) */
   double* coll_ref;       /* (nvox, 3) positions when the Verlet list was built */
@@ -130,6 +137,15 @@ typedef struct {
    `network`: bonds only (no muscles, floor, self-collision or drag): the linear network
    whose stability limit sets the time step. */
 void mjr_forces(const mjModel* m, mjData* d, mjrVoxels* v, const mjtNum* stick, int network);
+
+/* forces.c: the same forces at the state rows v->state (not d's qpos/qvel; d gives time,
+   ctrl and the applied forces), left in the scratch rows MJR_FORCE and MJR_TORQUE (world). */
+void mjr_voxel_forces(const mjModel* m, mjData* d, mjrVoxels* v, const mjtNum* stick,
+                      int network);
+
+/* forces.c: d's qpos/qvel of the voxels into the state rows, and back (moving voxels) */
+void mjr_load_state(mjrVoxels* v, const mjData* d);
+void mjr_store_state(const mjrVoxels* v, mjData* d);
 
 /* voxels.c: the instance's state on d (NULL if `instance` is not an mjregen.voxels plugin) */
 mjrVoxels* mjr_instance(const mjModel* m, const mjData* d, int instance);
