@@ -94,6 +94,24 @@ def test_spin_about_a_fixed_axis_turns_by_omega_t():
     assert min(np.max(np.abs(quat - expected)), np.max(np.abs(quat + expected))) < 1e-9
 
 
+@pytest.mark.parametrize("turn", [1e-3, 0.15])  # rad per step: half turns below/above 0.05
+def test_quaternion_update_equals_mujoco_at_any_turn_per_step(turn):
+    """The stepper's quaternion update (a series for small turns, sin and cos above)
+    equals MuJoCo's mju_quatIntegrate in mj_step, step by step."""
+    physics = NATIVE.replace(floor=False, gravity=0.0, drag_ratio=0.0)
+    model = compile_robot(Robot.from_body(np.ones((1, 1, 1), np.int8)), physics=physics).model
+    ours, theirs = mujoco.MjData(model), mujoco.MjData(model)
+    spin = np.array([0.3, -0.5, 0.8]) / np.linalg.norm([0.3, -0.5, 0.8])
+    for data in (ours, theirs):
+        data.qvel[3:6] = spin * turn / model.opt.timestep  # rad/s, body frame
+    stepper = NativeStepper(model, ours)
+    for _ in range(20):
+        assert stepper.step(1) == 1
+        mujoco.mj_step(model, theirs)
+        assert np.max(np.abs(ours.qpos - theirs.qpos)) < 1e-15
+    assert abs(ours.qpos[3]) < math.cos(20 * turn / 2) + 1e-9  # it turned
+
+
 @pytest.mark.parametrize("name", ["tripod", "biped"])
 def test_paper_robot_walks_the_same_distance(name):
     robot = Robot(np.load(f"assets/robots/paper/{name}.npy"))
@@ -148,6 +166,16 @@ def test_native_stepper_refuses_what_it_cannot_step():
     assert "centre of mass" in unsupported(model)
     with pytest.raises(ValueError, match="mass matrix"):
         NativeStepper(model, mujoco.MjData(model), checked=True)
+    # a body that is not a voxel (a free ball): mj_step moves it, the stepper would not
+    spec = compile_robot(Robot.from_body(SLAB)).spec
+    ball = spec.worldbody.add_body(name="ball", pos=[0.0, 0.0, 0.01])
+    ball.add_freejoint()
+    ball.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[1e-3, 0, 0], mass=1e-3)
+    model = spec.compile()
+    assert unsupported(model) == ""  # free, isotropic, centred: only the voxel list tells
+    with pytest.raises(PhysicsParameterError, match="not the voxel plugin's voxels"):
+        Simulation(model, physics=NATIVE, plugin_instance=0)
+    assert Simulation(model, physics=Physics(), plugin_instance=0).stepper is None
     sim = simulation_of(compile_robot(Robot.from_body(SLAB)))
     sim.data.xfrc_applied[1, 0] = 1e-3
     with pytest.raises(ValueError, match="xfrc_applied"):

@@ -9,7 +9,9 @@ force-producing actuators, constraints or fluid) those equations reduce to a con
 diagonal mass matrix and a constant gravity force, which ``plugin/step.c`` integrates
 exactly like ``mj_step`` with the Euler integrator (same order, same quaternion update,
 the plugin's forces and state advance, the same bad-value warnings), to rounding
-(tests/test_stepping.py).
+(tests/test_stepping.py); a step with a bad value is not taken. During a call the state
+lives in the plugin's arrays (rows per quantity, so that the per-voxel loops vectorise);
+``qpos``, ``qvel``, ``qacc`` and ``qfrc_passive`` are written at its end.
 
 `unsupported(model)` says why a model does not qualify (then ``stepper="auto"`` steps
 with ``mj_step``). Each `NativeStepper.step` call reads the masses, inertias, gravity and
@@ -98,6 +100,9 @@ class NativeStepper:
             raise ValueError(f"the native stepper cannot step this model: {reason}")
         self._model, self._data, self._instance = model, data, instance
         self._library = native.library()
+        if not voxels_only(model, data, instance):
+            raise ValueError("the native stepper cannot step this model: it has bodies or "
+                             "joints that are not the voxel plugin's voxels")
         _check_against_mujoco(model, data)
 
     def step(self, n_steps: int, com: np.ndarray | None = None) -> int:
@@ -120,8 +125,17 @@ class NativeStepper:
         done = self._library.mjr_step(self._model._address, self._data._address,
                                       self._instance, int(n_steps), pointer)
         if done < 0:
-            raise ValueError(f"plugin instance {self._instance} is not the voxel plugin")
+            raise ValueError(f"plugin instance {self._instance} is not the voxel plugin"
+                             if done == -1 else "the model has bodies or joints that are not "
+                             "the voxel plugin's voxels")
         return done
+
+
+def voxels_only(model: mujoco.MjModel, data: mujoco.MjData, instance: int) -> bool:
+    """Every body but the world is one of the voxel plugin's voxels (instance `instance`),
+    with the joints of a voxel and no others: what ``plugin/step.c`` integrates."""
+    done = native.library().mjr_step(model._address, data._address, instance, 0, None)
+    return done == 0
 
 
 def _check_against_mujoco(model: mujoco.MjModel, data: mujoco.MjData) -> None:

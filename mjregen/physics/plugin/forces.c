@@ -219,8 +219,8 @@ static void tendon_bonds(mjrVoxels* v, double ep, double em) {
 }
 
 /* gain = 2 asin(s) / s, s^2 = s2: the series (to 1e-7 for s < 0.3, 35-degree bends) or,
-   `exact`, asin above it. The vectorised loop takes the series and flags the bonds past it
-   (beam_redo). */
+   `exact`, asin above it. The vectorised loop takes the series; beam_bonds redoes the
+   bonds past it. */
 static inline double rotation_gain(double s2, int exact) {
   double series = 2.0 + s2 * (1.0 / 3.0 + s2 * (0.15 + s2 * (5.0 / 56.0 + s2 * 35.0 / 576.0)));
   if (!exact || s2 < 0.09) return series;
@@ -228,16 +228,22 @@ static inline double rotation_gain(double s2, int exact) {
   return 2.0 * asin(sn < 1.0 ? sn : 1.0) / sn;
 }
 
-/* One beam bond n from the gathered inputs to its outputs (mjrBeams); `exact` as in
-   rotation_gain. Written for the vectoriser: no calls, no branches but selects. */
+/* One beam bond n: its voxels i, j from the scratch rows `vox` (nvox each), its constants
+   `c` and outputs `out` (mjrBeams rows of `stride`); `exact` as in rotation_gain. Written
+   for the vectoriser: no calls, no branches but selects (the voxels' rows are gathered). */
 static inline __attribute__((always_inline)) void beam_bond(
-    const double* restrict c, const double* restrict in, double* restrict out, size_t stride,
-    size_t n, double L, double ep, double em, size_t ndriven, int exact) {
+    const double* restrict c, double* restrict out, size_t stride, const double* restrict vox,
+    size_t nvox, const int* restrict bonds, size_t n, double L, double ep, double em,
+    size_t ndriven, int exact) {
+  size_t i = (size_t)bonds[2 * n], j = (size_t)bonds[2 * n + 1];
 #define C(row) c[(row) * stride + n]
-#define IN(row) in[(row) * stride + n]
 #define OUT(row) out[(row) * stride + n]
-  double qi0 = IN(MJR_QI + 0), qi1 = IN(MJR_QI + 1), qi2 = IN(MJR_QI + 2), qi3 = IN(MJR_QI + 3);
-  double qj0 = IN(MJR_QJ + 0), qj1 = IN(MJR_QJ + 1), qj2 = IN(MJR_QJ + 2), qj3 = IN(MJR_QJ + 3);
+#define VI(row) vox[(size_t)(row) * nvox + i]
+#define VJ(row) vox[(size_t)(row) * nvox + j]
+  double qi0 = VI(MJR_QUAT), qi1 = VI(MJR_QUAT + 1), qi2 = VI(MJR_QUAT + 2),
+         qi3 = VI(MJR_QUAT + 3);
+  double qj0 = VJ(MJR_QUAT), qj1 = VJ(MJR_QUAT + 1), qj2 = VJ(MJR_QUAT + 2),
+         qj3 = VJ(MJR_QUAT + 3);
   /* r = q_i^-1 q_j on the short way round, its rotation vector Delta = gain rv, its half h */
   double rw = qi0 * qj0 + qi1 * qj1 + qi2 * qj2 + qi3 * qj3;
   double rv0 = qi0 * qj1 - qj0 * qi1 - (qi2 * qj3 - qi3 * qj2);
@@ -267,13 +273,17 @@ static inline __attribute__((always_inline)) void beam_bond(
   double M5 = 2 * (my * mz - mw * mx);
   double M6 = 2 * (mx * mz - mw * my);
   double M7 = 2 * (my * mz + mw * mx);
-  double dw0 = IN(MJR_DP + 0), dw1 = IN(MJR_DP + 1), dw2 = IN(MJR_DP + 2);
-  double wm0 = IN(MJR_WM + 0), wm1 = IN(MJR_WM + 1), wm2 = IN(MJR_WM + 2);
+  /* p_j - p_i and the mean angular velocity (world) */
+  double dw0 = VJ(MJR_P) - VI(MJR_P), dw1 = VJ(MJR_P + 1) - VI(MJR_P + 1),
+         dw2 = VJ(MJR_P + 2) - VI(MJR_P + 2);
+  double wm0 = 0.5 * (VJ(MJR_W) + VI(MJR_W)), wm1 = 0.5 * (VJ(MJR_W + 1) + VI(MJR_W + 1)),
+         wm2 = 0.5 * (VJ(MJR_W + 2) + VI(MJR_W + 2));
   /* velocity of j relative to i as seen in the mid frame: v_j - v_i - w_m x d */
-  double uw0 = IN(MJR_DV + 0) - (wm1 * dw2 - wm2 * dw1);
-  double uw1 = IN(MJR_DV + 1) - (wm2 * dw0 - wm0 * dw2);
-  double uw2 = IN(MJR_DV + 2) - (wm0 * dw1 - wm1 * dw0);
-  double ww0 = IN(MJR_DW + 0), ww1 = IN(MJR_DW + 1), ww2 = IN(MJR_DW + 2);
+  double uw0 = (VJ(MJR_VEL) - VI(MJR_VEL)) - (wm1 * dw2 - wm2 * dw1);
+  double uw1 = (VJ(MJR_VEL + 1) - VI(MJR_VEL + 1)) - (wm2 * dw0 - wm0 * dw2);
+  double uw2 = (VJ(MJR_VEL + 2) - VI(MJR_VEL + 2)) - (wm0 * dw1 - wm1 * dw0);
+  double ww0 = VJ(MJR_W) - VI(MJR_W), ww1 = VJ(MJR_W + 1) - VI(MJR_W + 1),
+         ww2 = VJ(MJR_W + 2) - VI(MJR_W + 2);
   /* into the mid frame: M^T x */
   double d0 = M0 * dw0 + M3 * dw1 + M6 * dw2;
   double d1 = M1 * dw0 + M4 * dw1 + M7 * dw2;
@@ -319,8 +329,9 @@ static inline __attribute__((always_inline)) void beam_bond(
   OUT(MJR_TJ + 1) = M3 * Tj0 + M4 * Tj1 + M5 * Tj2;
   OUT(MJR_TJ + 2) = M6 * Tj0 + M7 * Tj1 + M8 * Tj2;
 #undef C
-#undef IN
 #undef OUT
+#undef VI
+#undef VJ
 }
 
 /* Beam bonds: one co-rotated beam element per face bond, with the linear stiffness of the
@@ -338,34 +349,22 @@ static inline __attribute__((always_inline)) void beam_bond(
    angular velocity; the axial damping linear, beta k_a). Linearised this is the
    Euler-Bernoulli (k_s = E L) or Timoshenko (k_s = G L) beam of the tendons; momentum and
    angular momentum are conserved exactly (T_i + T_j + d x F_j = 0).
-   Three passes: gather each bond's voxel states, the arithmetic of all bonds as one
-   vectorised loop (beam_bond), the forces added to the voxels in bond order. */
+   Two passes: the arithmetic of all bonds as one vectorised loop (beam_bond), then the
+   forces added to the voxels in bond order. */
 static void beam_bonds(mjrVoxels* v, double ep, double em) {
   const mjrBeams* b = &v->beam;
   const size_t nb = (size_t)v->nbond, ndriven = (size_t)v->ndriven, stride = b->stride;
   const double L = v->voxel_size;
   const double* restrict c = b->constants;
-  double* restrict in = b->inputs;
   double* restrict out = b->outputs;
   const size_t N = (size_t)v->nvox;
   const double* restrict s = v->scratch;
-  for (size_t n = 0; n < nb; n++) {
-    size_t i = (size_t)v->bonds[2 * n], j = (size_t)v->bonds[2 * n + 1];
-    for (int a = 0; a < 4; a++) {
-      in[(MJR_QI + a) * stride + n] = s[(MJR_QUAT + a) * N + i];
-      in[(MJR_QJ + a) * stride + n] = s[(MJR_QUAT + a) * N + j];
-    }
-    for (int a = 0; a < 3; a++) {
-      in[(MJR_DP + a) * stride + n] = s[(MJR_P + a) * N + j] - s[(MJR_P + a) * N + i];
-      in[(MJR_DV + a) * stride + n] = s[(MJR_VEL + a) * N + j] - s[(MJR_VEL + a) * N + i];
-      in[(MJR_DW + a) * stride + n] = s[(MJR_W + a) * N + j] - s[(MJR_W + a) * N + i];
-      in[(MJR_WM + a) * stride + n] = 0.5 * (s[(MJR_W + a) * N + j] + s[(MJR_W + a) * N + i]);
-    }
-  }
 #pragma GCC ivdep /* rows of one block never overlap: no dependence between bonds */
-  for (size_t n = 0; n < nb; n++) beam_bond(c, in, out, stride, n, L, ep, em, ndriven, 0);
+  for (size_t n = 0; n < nb; n++)
+    beam_bond(c, out, stride, s, N, v->bonds, n, L, ep, em, ndriven, 0);
   for (size_t n = 0; n < nb; n++) { /* large bends: asin */
-    if (out[MJR_S2 * stride + n] >= 0.09) beam_bond(c, in, out, stride, n, L, ep, em, ndriven, 1);
+    if (out[MJR_S2 * stride + n] >= 0.09)
+      beam_bond(c, out, stride, s, N, v->bonds, n, L, ep, em, ndriven, 1);
   }
   double* force = v->scratch + MJR_FORCE * N;
   double* torque = v->scratch + MJR_TORQUE * N;
@@ -590,7 +589,8 @@ void mjr_forces(const mjModel* m, mjData* d, mjrVoxels* v, const mjtNum* stick, 
       qfrc[va + 1] += F[1];
       qfrc[va + 2] += F[2];
       /* torque into the body frame: R^T T */
-      for (int a = 0; a < 3; a++) qfrc[va + 3 + a] += R[a] * T[0] + R[3 + a] * T[1] + R[6 + a] * T[2];
+      for (int a = 0; a < 3; a++)
+        qfrc[va + 3 + a] += R[a] * T[0] + R[3 + a] * T[1] + R[6 + a] * T[2];
     } else {
       qfrc[va] += F[0];
       qfrc[va + 1] += F[2];

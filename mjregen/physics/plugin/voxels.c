@@ -107,7 +107,6 @@ static void release(mjrVoxels* v) {
                     v->coll_pairs};
   for (size_t i = 0; i < sizeof(arrays) / sizeof(arrays[0]); i++) free(arrays[i]);
   free(v->beam.constants);
-  free(v->beam.inputs);
   free(v->beam.outputs);
   free(v);
 }
@@ -118,7 +117,6 @@ static void arrange_beams(mjrVoxels* v) {
   size_t nb = (size_t)v->nbond, stride = nb > 0 ? nb : 1;
   b->stride = stride;
   b->constants = (double*)calloc(stride * MJR_BEAM_CONSTANTS, sizeof(double));
-  b->inputs = (double*)calloc(stride * MJR_BEAM_INPUTS, sizeof(double));
   b->outputs = (double*)calloc(stride * MJR_BEAM_OUTPUTS, sizeof(double));
   double* c = b->constants;
   for (size_t n = 0; n < nb; n++) {

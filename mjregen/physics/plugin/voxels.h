@@ -62,9 +62,9 @@ enum { MJR_P = 0, MJR_R = 3, MJR_VEL = 12, MJR_W = 15, MJR_FORCE = 18, MJR_TORQU
 enum { MJR_QPOS = 0, MJR_QVEL = 7, MJR_STATE = 13 };
 
 /* Beam bonds as a structure of arrays, so that the per-bond arithmetic runs as one loop the
-   compiler vectorises: three blocks of rows of `stride` (= nbond) doubles, row r of block X
-   at X + r * stride. Constants from the configuration; each step's inputs (gathered from
-   the voxels) and outputs (scattered back in bond order). */
+   compiler vectorises: two blocks of rows of `stride` (= nbond) doubles, row r of block X
+   at X + r * stride: constants from the configuration, and each step's outputs (added to
+   the voxels in bond order). */
 enum { /* constants */
   MJR_AXIS,                                    /* 0, 1, 2 (doubles: the data's width) */
   MJR_K_AXIAL, MJR_K_SHEAR, MJR_K_BEND, MJR_K_TWIST, /* N/m, N/m, N m, N m */
@@ -73,12 +73,6 @@ enum { /* constants */
   MJR_MUSCLE_P, MJR_MUSCLE_M,                  /* m: rest L + muscle_p e+ + muscle_m e- */
   MJR_BEAM_CONSTANTS
 };
-enum { /* inputs */
-  MJR_QI = 0, MJR_QJ = 4,                      /* unit quaternions of voxels i and j */
-  MJR_DP = 8, MJR_DV = 11, MJR_DW = 14, MJR_WM = 17, /* p_j - p_i, v_j - v_i, w_j - w_i,
-                                                  (w_i + w_j) / 2 (world) */
-  MJR_BEAM_INPUTS = 20
-};
 enum { /* outputs */
   MJR_F = 0, MJR_TI = 3, MJR_TJ = 6,           /* world force on j (-F on i), torques */
   MJR_S2 = 9,                                  /* |vector part of q_i^-1 q_j|^2 */
@@ -86,7 +80,7 @@ enum { /* outputs */
 };
 typedef struct {
   size_t stride;
-  double *constants, *inputs, *outputs;
+  double *constants, *outputs;
 } mjrBeams;
 
 /* One robot's configuration and work space, per mjData (d->plugin_data[instance]). */
