@@ -208,12 +208,12 @@ def bond_tables(layout: RobotLayout, physics: Physics
             "geometry needs one ratio per robot")
     a, b = bond_geometry(ratios.pop(), L, bond_model=bond_model)
     voxels, masses = layout.voxels, layout.masses
-    weights, lateral = [], []
-    ends, offsets, stiffnesses, dampings, rests, tendon_bond = [], [], [], [], [], []
     beam_stiffness, beam_law, beam_beta, beam_weights = [], [], [], []
     max_k_per_m = 0.0
-    bond_kinds: dict[tuple, tuple] = {}
-    for bond, (i, j, axis) in enumerate(layout.bonds):
+    kinds: dict[tuple, int] = {}  # robots have few distinct bonds: build each kind once
+    kind_tendons: list[dict[str, np.ndarray]] = []
+    kind_of_bond = []
+    for i, j, axis in layout.bonds:
         p_i, p_j = physics.materials[voxels[i][1]], physics.materials[voxels[j][1]]
         e_bond = _series(p_i.youngs_modulus, p_j.youngs_modulus)
         g_bond = (e_bond if bond_model == "euler_bernoulli"
@@ -226,48 +226,49 @@ def bond_tables(layout: RobotLayout, physics: Physics
         for props in (p_i, p_j):
             if props.is_muscle:
                 bond_weights[0 if props.phase_sign > 0 else 1] += 0.5 * props.strain_amplitude
-        driven = p_i.is_muscle or p_j.is_muscle
         beam_stiffness.append((e_bond * L, g_bond * L, e_bond * L**3 / 12.0, g_bond * L**3 / 3.0))
         beam_beta.append(damping_per_stiffness)
-        if driven:
+        if p_i.is_muscle or p_j.is_muscle:
             beam_weights.append(bond_weights)
         key = (axis, e_bond, g_bond, damping_per_stiffness)
-        if key not in bond_kinds:  # robots have few distinct bonds: build each kind once
-            bond_kinds[key] = _bond_tendon_values(axis, layout.dim, L, a, b, e_bond, g_bond,
-                                                  damping_per_stiffness)
-        law, bond_tendons = bond_kinds[key]
-        for _, _, site_i, site_j, k_tendon, c_tendon, rest, extent in bond_tendons:
-            ends.append((i, j))
-            offsets.append((site_i, site_j))
-            stiffnesses.append(k_tendon)
-            dampings.append(c_tendon)
-            rests.append(rest)
-            tendon_bond.append(bond)
-            if driven:
-                weights.append(bond_weights)
-                lateral.append(extent)
-        beam_law.append(law)
+        if key not in kinds:
+            law, tendons = _bond_tendon_values(axis, layout.dim, L, a, b, e_bond, g_bond,
+                                               damping_per_stiffness)
+            kinds[key] = len(kind_tendons)
+            kind_tendons.append({"law": np.array(law, dtype=float),
+                                 "offsets": np.array([t[2:4] for t in tendons], dtype=float),
+                                 **{name: np.array([t[k] for t in tendons], dtype=float)
+                                    for k, name in ((4, "stiffness"), (5, "damping"),
+                                                    (6, "rest"), (7, "lateral"))}})
+        kind_of_bond.append(kinds[key])
     if not layout.bonds:
         present = {m for _, m in voxels}
         max_k_per_m = max(physics.materials[m].youngs_modulus * L / physics.voxel_mass(m)
                           for m in present)
-    table = BondTable(ends=np.array(ends, dtype=int).reshape(-1, 2),
-                      offsets=np.array(offsets, dtype=float).reshape(-1, 2, 3),
-                      stiffness=np.array(stiffnesses, dtype=float),
-                      damping=np.array(dampings, dtype=float), rest=np.array(rests, dtype=float),
-                      bond=np.array(tendon_bond, dtype=int),
-                      lateral=np.array([np.linalg.norm(np.subtract(*o)) for o in offsets],
-                                       dtype=float))
-    beams = BeamTable(ends=np.array([(i, j) for i, j, _ in layout.bonds], dtype=int).reshape(-1, 2),
-                      axis=np.array([axis for _, _, axis in layout.bonds], dtype=int),
+    bond_ends = np.array([(i, j) for i, j, _ in layout.bonds], dtype=int).reshape(-1, 2)
+    counts = np.array([len(kind_tendons[k]["stiffness"]) for k in kind_of_bond], dtype=int)
+    tendon_bond = np.repeat(np.arange(len(layout.bonds)), counts)
+
+    def per_tendon(name: str, shape: tuple) -> np.ndarray:
+        parts = [kind_tendons[k][name] for k in kind_of_bond]
+        return np.concatenate(parts) if parts else np.zeros((0, *shape))
+
+    table = BondTable(ends=bond_ends[tendon_bond], offsets=per_tendon("offsets", (2, 3)),
+                      stiffness=per_tendon("stiffness", ()), damping=per_tendon("damping", ()),
+                      rest=per_tendon("rest", ()), bond=tendon_bond,
+                      lateral=per_tendon("lateral", ()))
+    beams = BeamTable(ends=bond_ends, axis=np.array([axis for _, _, axis in layout.bonds],
+                                                     dtype=int),
                       stiffness=np.array(beam_stiffness, dtype=float).reshape(-1, 4),
-                      axial_law=np.array(beam_law, dtype=float).reshape(-1, 3),
+                      axial_law=np.array([kind_tendons[k]["law"] for k in kind_of_bond],
+                                         dtype=float).reshape(-1, 3),
                       beta=np.array(beam_beta, dtype=float),
                       muscle_weights=np.array(beam_weights, dtype=float).reshape(-1, 2))
     muscles = None
-    if weights:
-        muscles = MuscleTendons(weights=np.array(weights), lateral=np.array(lateral),
-                                voxel_size=L)
+    if beam_weights:  # driven bonds come first (`robot_layout`), so do their tendons
+        driven_counts = counts[: len(beam_weights)]
+        muscles = MuscleTendons(weights=np.repeat(beams.muscle_weights, driven_counts, axis=0),
+                                lateral=table.lateral[: driven_counts.sum()], voxel_size=L)
     return table, beams, muscles, max_k_per_m
 
 
