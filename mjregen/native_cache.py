@@ -3,17 +3,18 @@ command-line help and start-up stay cheap).
 
 The library is compiled for the machine it is built on (``-march=native``: the vector
 instructions of this CPU), with the IEEE arithmetic of the source as written (no fused
-multiply-add, no reassociation: the same numbers as any other build). Its file name is keyed
-by the plugin's sources, the compiler flags, this CPU's instruction set, the installed MuJoCo
-version and where it is installed, so that a cache folder shared by different machines (a
-cluster's home directory) holds one library per kind of CPU; the folder is ``$MJREGEN_CACHE``, else ``$XDG_CACHE_HOME/mjregen``, else
-``~/.cache/mjregen``.
+multiply-add, no reassociation: every CPU computes the same numbers, given the same C
+library). Its file name is keyed by the plugin's sources, the compiler flags, this CPU's
+instruction set and the installed MuJoCo library (path, size and modification time: a new
+MuJoCo is a new library), so that a cache folder shared by different machines (a cluster's
+home directory) holds one library per kind of CPU. The folder is ``$MJREGEN_CACHE``, else
+``$XDG_CACHE_HOME/mjregen``, else ``~/.cache/mjregen``.
 """
 
 from __future__ import annotations
 
+import functools
 import hashlib
-import importlib.metadata
 import importlib.util
 import os
 import platform
@@ -38,21 +39,29 @@ def cpu_features() -> str:
     return "\n".join(sorted(seen.values()))
 
 
-def mujoco_location() -> tuple[str, Path]:
-    """(version, path of the package's ``__init__.py``) of the installed ``mujoco``."""
+def mujoco_libraries() -> list[Path]:
+    """The installed ``mujoco`` package's shared libraries (``libmujoco*``), found without
+    importing it: what the plugin links against."""
     spec = importlib.util.find_spec("mujoco")
     if spec is None or spec.origin is None:
         raise ModuleNotFoundError("the mujoco package is not installed")
-    return importlib.metadata.version("mujoco"), Path(spec.origin)
+    root = Path(spec.origin).parent
+    return sorted(root.glob("libmujoco.so*")) + sorted(root.glob("libmujoco*.dylib"))
+
+
+@functools.lru_cache(maxsize=None)
+def _key(sources: bytes, libraries: tuple[tuple[str, int, int], ...]) -> str:
+    digest = hashlib.sha256(sources + " ".join(FLAGS).encode() + cpu_features().encode()
+                            + repr(libraries).encode())
+    return digest.hexdigest()[:16]
 
 
 def library_path() -> Path:
     """The plugin library's path for these sources and this MuJoCo (built or not)."""
-    version, origin = mujoco_location()
-    key = hashlib.sha256(b"".join((PLUGIN_SOURCES / name).read_bytes() for name in PLUGIN_FILES)
-                         + " ".join(FLAGS).encode() + cpu_features().encode()
-                         + version.encode() + str(origin).encode()).hexdigest()[:16]
+    sources = b"".join((PLUGIN_SOURCES / name).read_bytes() for name in PLUGIN_FILES)
+    libraries = tuple((str(path), path.stat().st_size, path.stat().st_mtime_ns)
+                      for path in mujoco_libraries())
     root = Path(os.environ.get("MJREGEN_CACHE",
                                Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache"))
                                / "mjregen"))
-    return root / f"libmjregen_voxels-{key}.so"
+    return root / f"libmjregen_voxels-{_key(sources, libraries)}.so"

@@ -60,12 +60,13 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 def _prepare_gl(args: argparse.Namespace) -> None:
     """Before anything imports MuJoCo: a ``MUJOCO_GL`` whose library is missing is a
-    one-line error for commands that render; the others then load no OpenGL at all."""
+    one-line error for commands that render; the others load no OpenGL at all (neither
+    a missing library nor the start-up time of one can then stop or slow them)."""
     renders = getattr(args, "renders", False) and not getattr(args, "no_video", False)
     problem = gl.missing_library(gl.requested_backend())
     if problem and renders:
         raise MjregenError(problem)
-    if problem and "mujoco" not in sys.modules:
+    if not renders and "mujoco" not in sys.modules:
         gl.disable_for_work_without_rendering()
 
 

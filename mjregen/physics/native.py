@@ -30,7 +30,8 @@ from pathlib import Path
 import mujoco
 
 from mjregen.errors import MjregenError
-from mjregen.native_cache import FLAGS, PLUGIN_FILES, PLUGIN_SOURCES, library_path
+from mjregen.native_cache import (FLAGS, PLUGIN_FILES, PLUGIN_SOURCES, library_path,
+                                  mujoco_libraries)
 
 PLUGIN_NAME = "mjregen.voxels"
 SOURCES = tuple(PLUGIN_SOURCES / name for name in PLUGIN_FILES if name.endswith(".c"))
@@ -60,10 +61,10 @@ def _compiler() -> str | None:
 
 def _mujoco_library() -> Path:
     """The wheel's libmujoco (the one the Python bindings use)."""
-    root = Path(mujoco.__file__).parent
-    candidates = sorted(root.glob("libmujoco.so*")) + sorted(root.glob("libmujoco*.dylib"))
+    candidates = mujoco_libraries()
     if not candidates:
-        raise NativeBuildError(f"no libmujoco shared library next to the mujoco package in {root}")
+        raise NativeBuildError("no libmujoco shared library next to the mujoco package in "
+                               f"{Path(mujoco.__file__).parent}")
     return candidates[0]
 
 
