@@ -152,3 +152,20 @@ def test_without_a_compiler_the_network_rule_says_so_and_the_mujoco_presets_stil
     assert compiled.timestep == pytest.approx(
         stiffest_bond_step(physics, 1e7 * 1e-3 / physics.voxel_mass(Material.SOFT)), rel=1e-5)
     assert simulation_of(compiled).run(100) == ""
+
+
+def test_compiled_robot_reports_the_rates_behind_its_step():
+    """The network rule's (λ, μ) are kept with the compiled robot: the stored step is
+    timestep_safety × stable_step(λ, μ) (rounded like MJCF). With the paper's bond damping
+    (ζ = 1 per bond, stiffness-proportional C = βK) the fastest mode is overdamped
+    (μ > 2√λ): a mode's damping ratio grows with its frequency."""
+    from mjregen.physics.model import round_like_mjcf
+
+    compiled = compile_robot(Robot.from_body(np.ones((3, 3, 3), dtype=np.int8)),
+                             physics=NETWORK)
+    stiffness, damping = compiled.network_rates
+    safety = NETWORK.scene.timestep_safety
+    assert compiled.timestep == round_like_mjcf(safety * stable_step(stiffness, damping))
+    assert damping > 2.0 * np.sqrt(stiffness)  # mode damping ratio above 1
+    assert compile_robot(Robot.from_body(np.ones((3, 3, 3), dtype=np.int8)),
+                         physics=STIFFEST_BOND).network_rates is None

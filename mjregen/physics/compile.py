@@ -49,6 +49,10 @@ class CompiledRobot:
       n_bonds: number of face bonds.
       bonds: every bond tendon as arrays (`BondTable`).
       beams: every bond as one beam element (`BeamTable`).
+      network_rates: (λ s⁻², μ s⁻¹) behind the network rule's time step (the largest
+        eigenvalues of M⁻¹K and M⁻¹C, muscle stiffening included: the step is
+        `timestep_safety` × `timestep.stable_step(λ, μ)` before rounding), or None (the
+        stiffest-bond rule, or no bonds).
     """
 
     robot: Robot
@@ -63,6 +67,7 @@ class CompiledRobot:
     n_bonds: int
     bonds: BondTable
     beams: BeamTable
+    network_rates: tuple[float, float] | None = None
 
     @property
     def timestep(self) -> float:
@@ -128,23 +133,25 @@ def compile_robot(
         mjcf.add_mujoco_bonds(spec, bodies, layout, physics, table)
     spec.option.timestep = round_like_mjcf(timestep.stiffest_bond_step(physics, max_k_per_m))
     model = spec.compile()
+    rates = None
     if physics.pipeline.timestep_rule == "network" and layout.bonds:
+        rates = _network_rates(model, layout, physics, table, beams)
         spec.option.timestep = round_like_mjcf(
-            _network_step(model, layout, physics, table, beams))
+            physics.scene.timestep_safety * timestep.stable_step(*rates))
         model.opt.timestep = spec.option.timestep
     body_ids = np.array([model.body(body.name).id for body in bodies])
     return CompiledRobot(
         robot=robot, physics=physics, pipeline=pipeline, spec=spec, model=model,
         voxel_index=layout.grid_index, body_ids=body_ids, masses=layout.masses,
         muscles=muscles if pipeline == "mujoco" else None, n_bonds=len(layout.bonds),
-        bonds=table, beams=beams)
+        bonds=table, beams=beams, network_rates=rates)
 
 
-def _network_step(model: mujoco.MjModel, layout: RobotLayout, physics: Physics,
-                  table: BondTable, beams: BeamTable) -> float:
-    """s: the network rule's step (`mjregen.physics.timestep`). The pure-MuJoCo pipeline's
-    network is measured on the same robot's plugin model with its tendons, floor off (its
-    contacts are not the engine floor)."""
+def _network_rates(model: mujoco.MjModel, layout: RobotLayout, physics: Physics,
+                   table: BondTable, beams: BeamTable) -> tuple[float, float]:
+    """(λ s⁻², μ s⁻¹) of the network rule (`mjregen.physics.timestep`), muscle stiffening
+    included. The pure-MuJoCo pipeline's network is measured on the same robot's plugin
+    model with its tendons, floor off (its contacts are not the engine floor)."""
     scene, pipeline = physics.scene, physics.pipeline
     if pipeline.name != "voxel":
         if not native.available():
@@ -169,5 +176,4 @@ def _network_step(model: mujoco.MjModel, layout: RobotLayout, physics: Physics,
     stiffness, damping = timestep.network_rates(model, voxel_size=scene.voxel_size,
                                                 floor_stiffness=floor_k, floor_damping=floor_c)
     stiffening = timestep.strain_stiffening(beams, scene)
-    return scene.timestep_safety * timestep.stable_step(stiffening * stiffness,
-                                                        stiffening * damping)
+    return stiffening * stiffness, stiffening * damping
