@@ -5,14 +5,16 @@ evolution.
         [--scene stepper=mujoco --scene timestep_rule=stiffest_bond]
         [--scene pipeline=mujoco --scene contact_shape=point]
         [--backends serial process thread] [--json out.json]
-    python benchmarks/evolution.py short-run [--pop 20] [--gens 5] [--out runs/short3d]
+    python benchmarks/evolution.py short-run [--pop 100] [--gens 5] [--out runs/short3d]
+        [--json out.json]
 
 `backends` grows one 3D population (the paper's initial genes, so most robots are large
 blocks) and evaluates it serially, on 2 worker processes and on 2 threads: wall and CPU
 time, evaluations per second, parallel efficiency, and the projected wall time of a
 paper-size 3D run (100 x 300) at that rate. `short-run` runs a real evolution with the
-paper's 3D GA (population and generations reduced) and prints the best fitness per
-generation.
+paper's 3D GA (generations reduced) on 2 worker processes: evaluations per second, the best
+fitness per generation and the projected wall time of the paper's 300 generations
+(`benchmarks/speed.py --evolution` puts it into docs/performance.md).
 """
 
 from __future__ import annotations
@@ -74,22 +76,40 @@ def backends(args: argparse.Namespace) -> dict:
 
 
 def short_run(args: argparse.Namespace) -> dict:
-    ga = PRESETS["3d"].with_overrides(population=args.pop, generations=args.gens,
-                                      truncation=max(2, args.pop // 5), elites=max(1, args.pop // 5))
+    """A real 3D evolution with the paper's GA (population `--pop`, its truncation and
+    elites shares) on 2 worker processes; its throughput and the projected wall time of the
+    paper's 300 generations at the measured mean time per generation."""
+    ga = PRESETS["3d"].with_overrides(population=args.pop, generations=args.gens)
     task = LocomotionTask(nca=NCAConfig(dim=3, kind="ff"))
-    best = []
+    rows = []
+    wall, cpu = time.perf_counter(), time.process_time()
     with make_backend("process", workers=2) as backend:
         run_evolution(task, ga, seed=args.seed, out=args.out, backend=backend, force=True,
                       task_config={"benchmark": "short-run", "ga": ga.to_dict()},
-                      on_generation=lambda row: best.append(float(row["best"])))
-    print("best fitness per generation:", " ".join(f"{b:.3f}" for b in best))
-    return {"ga": ga.to_dict(), "seed": args.seed, "best": best}
+                      on_generation=lambda row: rows.append(dict(row)))
+    wall = time.perf_counter() - wall
+    per_generation = [float(row["wall_time"]) for row in rows]
+    evaluations = sum(int(row["evaluations"]) for row in rows)
+    result = {"ga": ga.to_dict(), "seed": args.seed, "workers": 2,
+              "best": [float(row["best"]) for row in rows],
+              "generation_wall_s": per_generation,
+              "evaluations_per_generation": [int(row["evaluations"]) for row in rows],
+              "distinct_per_generation": [int(row["distinct"]) for row in rows],
+              "evaluations": evaluations, "wall_s": wall,
+              "evaluations_per_s": evaluations / sum(per_generation),
+              "projected_paper_run_h": float(np.mean(per_generation)) * 300 / 3600}
+    print(f"{evaluations} evaluations in {sum(per_generation):.1f} s "
+          f"({result['evaluations_per_s']:.2f} per s); best per generation: "
+          + " ".join(f"{b:.3f}" for b in result["best"])
+          + f"; 300 generations at this pace: {result['projected_paper_run_h']:.2f} h")
+    return result
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("mode", choices=("backends", "short-run"))
-    parser.add_argument("--pop", type=int, default=20)
+    parser.add_argument("--pop", type=int, default=None,
+                        help="population (default: backends 20, short-run the paper's 100)")
     parser.add_argument("--gens", type=int, default=5)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--out", default="runs/short3d")
@@ -104,6 +124,8 @@ def main() -> None:
                         help="backends to time (efficiency is relative to serial, if timed)")
     parser.add_argument("--json", help="also write the results here")
     args = parser.parse_args()
+    if args.pop is None:
+        args.pop = 20 if args.mode == "backends" else PRESETS["3d"].population
     results = backends(args) if args.mode == "backends" else short_run(args)
     if args.json:
         with open(args.json, "w") as handle:

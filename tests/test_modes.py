@@ -156,8 +156,8 @@ def test_without_a_compiler_the_network_rule_says_so_and_the_mujoco_presets_stil
 
 def test_compiled_robot_reports_the_rates_behind_its_step():
     """The network rule's (λ, μ) are kept with the compiled robot: the stored step is
-    timestep_safety × stable_step(λ, μ) (rounded like MJCF). With the paper's bond damping
-    (ζ = 1 per bond, stiffness-proportional C = βK) the fastest mode is overdamped
+    timestep_safety × stable_step(λ, μ) (rounded like MJCF). With the default bond damping
+    (ζ = 0.4 per bond, stiffness-proportional: C = βK) the fastest mode is overdamped
     (μ > 2√λ): a mode's damping ratio grows with its frequency."""
     from mjregen.physics.model import round_like_mjcf
 

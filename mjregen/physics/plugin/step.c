@@ -68,8 +68,7 @@ static void centre_of_mass(const mjModel* m, const mjData* d, double total, doub
    exp(scale w / 2), w in the body frame. `exact`: sin and cos at any angle; else their series,
    exact to rounding for a half turn below 0.05 rad (next terms < 1e-20), and where it is
    larger the quaternion is left as it was and `*large` set (the caller redoes the voxel
-   exactly). Written for the
-   vectoriser: selects, no branches. */
+   exactly). Written for the vectoriser: selects, no branches. */
 static inline __attribute__((always_inline)) void quat_integrate(
     double* restrict q, const double* restrict w, size_t N, size_t n, double scale, int exact,
     double* large) {
@@ -154,7 +153,7 @@ static int voxels_cover_model(const mjModel* m, const mjrVoxels* v) {
 }
 
 /* One step's velocities from the forces in the scratch rows: acc = (0 + qfrc + applied +
-   gravity) / M_ii, vel' = vel + dt acc, per voxel dof as in mj_step's order of operations;
+   gravity) (1 / M_ii), vel' = vel + dt acc, per voxel dof as in mj_step's order of operations;
    into the rows `acc` and `vel` (nd rows each). Returns the first dof (in the model's
    order) whose acceleration or new velocity is bad, with *which the warning, or -1. */
 static int velocities(const mjrVoxels* v, const double* restrict per_dof, double dt,
