@@ -1,6 +1,7 @@
 """The `mjregen` command: grow and show, their JSON, and one-line errors."""
 
 import json
+import math
 import subprocess
 import sys
 
@@ -94,6 +95,13 @@ def test_walk_json_equals_simulate(tmp_path, capsys):
     assert report["stable"] and report["steps"] == expected.steps
     rows = np.loadtxt(csv, delimiter=",", skiprows=1)
     assert rows.shape == (expected.steps + 1, 4)
+    # the planar displacement (voxel lengths) from the settle's end, and its heading
+    settle = round(0.01 / expected.timestep)
+    moved = (rows[-1, 1:3] - rows[settle, 1:3]) / 1e-3
+    assert np.allclose(report["displacement"], moved, rtol=1e-6, atol=1e-9)
+    assert math.hypot(*report["displacement"]) == pytest.approx(report["distance"], rel=1e-12)
+    assert report["heading"] == pytest.approx(math.degrees(math.atan2(moved[1], moved[0])),
+                                              abs=1e-4)
     assert main(["walk", WALKER, "--duration", "0.01", "--trajectory", str(csv)]) == 1  # exists
     assert "exists" in capsys.readouterr().err
 

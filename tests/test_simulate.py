@@ -35,6 +35,11 @@ def test_two_phase_walker_moves(walker_3d):
     start = np.searchsorted(result.times, 0.05)
     displacement = result.com[-1] - result.com[start]
     assert abs(displacement[0]) > 10 * abs(displacement[1])
+    settled = result.com[np.searchsorted(result.times, 0.05 - result.timestep / 2)]
+    moved = (result.com[-1] - settled)[:2] / 1e-3  # voxel lengths
+    assert np.allclose(result.displacement, moved, rtol=1e-9, atol=1e-12)
+    assert result.heading == pytest.approx(math.degrees(math.atan2(*moved[::-1])), abs=1e-6)
+    assert min(abs(result.heading), 180.0 - abs(result.heading)) < 6.0  # along ±x
     assert result.dim == 3 and VOXEL_COST == 0.0583
     assert locomotion_fitness(result) == pytest.approx(result.distance - 0.0583 * 20, abs=1e-12)
 
@@ -43,6 +48,8 @@ def test_two_phase_walker_moves_in_2d():
     result = simulate(Robot.load(ROBOTS / "bimorph_walker_2d.npy"))
     assert result.stable and result.distance > 0.4  # 0.75 in the paper's 10 cycles
     assert result.dim == 2 and locomotion_fitness(result) == result.distance
+    assert result.displacement[1] == 0.0 and abs(result.displacement[0]) == result.distance
+    assert result.heading in (0.0, 180.0)
 
 
 def test_mirror_symmetric_in_phase_robot_does_not_move():
@@ -87,6 +94,7 @@ def test_empty_robot_scores_without_simulating(shape, fitness):
     result = simulate(Robot(np.zeros(shape, dtype=np.int8)))
     assert result.dim == len(shape) and EMPTY_FITNESS[result.dim] == fitness
     assert locomotion_fitness(result) == fitness and result.steps == 0 and result.n_voxels == 0
+    assert result.displacement == (0.0, 0.0) and math.isnan(result.heading)  # no direction
 
 
 def test_unstable_run_is_flagged_with_penalty_not_raised():
@@ -96,7 +104,8 @@ def test_unstable_run_is_flagged_with_penalty_not_raised():
     result = simulate(robot, physics=physics)
     assert not result.stable and result.reason
     assert locomotion_fitness(result) == UNSTABLE_FITNESS[3] == -21.0
-    assert math.isnan(result.distance)
+    assert math.isnan(result.distance) and math.isnan(result.heading)
+    assert all(math.isnan(d) for d in result.displacement)
     assert result.steps < round(0.55 / result.timestep)  # stopped early
     result_2d = simulate(Robot.from_body(np.ones((2, 2), dtype=np.int8)), physics=physics)
     assert not result_2d.stable and locomotion_fitness(result_2d) == UNSTABLE_FITNESS[2] == -1.0

@@ -136,18 +136,28 @@ def _walk(args: argparse.Namespace) -> int:
             handle.write("t,x,y,z\n")
             np.savetxt(handle, np.column_stack([result.times, result.com]), delimiter=",", fmt="%.9g")
     report = {"robot": str(args.robot), "voxels": result.n_voxels, "distance": result.distance,
+              "displacement": list(result.displacement), "heading": result.heading,
               "fitness": fitness, "stable": result.stable, "reason": result.reason,
               "steps": result.steps, "sim_time": result.sim_time, "timestep": result.timestep,
               "wall_time": result.wall_time, "cpu_time": result.cpu_time}
     if args.json:
-        print(json.dumps({k: (None if isinstance(v, float) and np.isnan(v) else v) for k, v in report.items()}))
+        print(json.dumps({k: _finite_or_none(v) for k, v in report.items()}))
         return 0
     verdict = "stable" if result.stable else f"UNSTABLE ({result.reason})"
-    print(f"{args.robot}: {result.n_voxels} voxels, distance {result.distance:.4f} voxel lengths, "
-          f"fitness {fitness:.4f}, {verdict}")
+    dx, dy = result.displacement
+    print(f"{args.robot}: {result.n_voxels} voxels, distance {result.distance:.4f} voxel lengths "
+          f"(dx {dx:.4f}, dy {dy:.4f}, heading {result.heading:.1f} deg), fitness "
+          f"{fitness:.4f}, {verdict}")
     print(f"{result.steps} steps of {result.timestep:.3g} s ({result.sim_time:.3f} s simulated) "
           f"in {result.wall_time:.2f} s wall, {result.cpu_time:.2f} s CPU")
     return 0
+
+
+def _finite_or_none(value):
+    """`value` for JSON: NaN (an unstable run's numbers) becomes null, in lists too."""
+    if isinstance(value, list):
+        return [_finite_or_none(v) for v in value]
+    return None if isinstance(value, float) and np.isnan(value) else value
 
 
 def add_export(subparsers: argparse._SubParsersAction) -> None:

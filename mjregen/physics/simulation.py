@@ -42,6 +42,8 @@ class Result:
       distance: planar (x, y) displacement of the centre of mass, in voxel lengths, from the
         end of the settle to the end of the run (NaN when unstable; 0 for an empty robot).
       dim: 2 or 3.
+      displacement: (dx, dy) of that displacement in voxel lengths (2D: dy = 0; NaN when
+        unstable); `heading` is its direction.
       n_voxels: number of voxels.
       stable: False when the state became NaN, MuJoCo warned, or a voxel ran away.
       reason: why the run is unstable ("" when stable).
@@ -65,6 +67,16 @@ class Result:
     cpu_time: float
     times: np.ndarray | None = None
     com: np.ndarray | None = None
+    displacement: tuple[float, float] = (0.0, 0.0)
+
+    @property
+    def heading(self) -> float:
+        """Direction of `displacement` in degrees, counter-clockwise from the x axis, in
+        (-180, 180]; NaN when the robot did not move or the run is unstable."""
+        dx, dy = self.displacement
+        if not (math.isfinite(dx) and math.isfinite(dy)) or (dx == 0.0 and dy == 0.0):
+            return math.nan
+        return math.degrees(math.atan2(dy, dx))
 
 
 class Simulation:
@@ -280,10 +292,13 @@ def simulate(
         com[sim.steps] = end
         com = com[: sim.steps + 1]
     planar = [0, 1] if dim == 3 else [0]
-    distance = float(np.linalg.norm(end[planar] - start[planar])) / physics.scene.voxel_size
+    length = physics.scene.voxel_size
+    distance = float(np.linalg.norm(end[planar] - start[planar])) / length
+    dx, dy = (end[0] - start[0]) / length, (end[1] - start[1]) / length if dim == 3 else 0.0
     stable = not reason
     return Result(
         distance=distance if stable else math.nan, dim=dim, n_voxels=robot.n_voxels,
+        displacement=(float(dx), float(dy)) if stable else (math.nan, math.nan),
         stable=stable, reason=reason, steps=sim.steps, sim_time=sim.steps * dt, timestep=dt,
         wall_time=time.perf_counter() - wall0, cpu_time=time.process_time() - cpu0,
         times=None if com is None else np.arange(sim.steps + 1) * dt, com=com)
