@@ -295,10 +295,21 @@ def performance_doc(report: dict, extra: dict, evolution: dict | None) -> str:
         lines.append(f"| {DOC_ROBOTS.get(name, name)} | {row['voxels']} | {engine_cpu} | "
                      f"{ours['cpu_s']:.3f} | {ratio} | {engine_count} / {ours['steps']:,} | "
                      f"{per_step} |")
+    tendons = {n: row["tendon-bonds"]["cpu_s"] / row["default"]["cpu_s"]
+               for n, row in report.items() if "tendon-bonds" in row}
     lines += [
         "",
         "The engine's steps follow its rule (0.9 / (2π √(k/m)), k = E·L of the stiffest "
         "material present); it reports no count. mjregen's µs per voxel-step include compile.",
+    ]
+    if tendons:
+        lines += [
+            "",
+            "`--bonds tendons` (8 spring tendons per bond, the same linear mechanics) costs "
+            + ", ".join(f"{DOC_ROBOTS.get(n, n)} {r:.1f}×" for n, r in tendons.items())
+            + " the CPU time of the default beam bonds.",
+        ]
+    lines += [
         "",
         "## Before",
         "",
