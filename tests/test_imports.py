@@ -1,11 +1,15 @@
-"""The import graph of the package has no cycle (imports inside functions included)."""
+"""The import graph of the package has no cycle (imports inside functions included), and
+walking a robot imports only what it needs."""
 
 from __future__ import annotations
 
 import ast
+import subprocess
+import sys
 from pathlib import Path
 
 import mjregen
+from mjregen.resources import asset
 
 ROOT = Path(mjregen.__file__).parent
 
@@ -72,3 +76,17 @@ def test_the_package_has_no_import_cycle():
     assert "mjregen.physics" not in graph["mjregen.physics.compile"]  # siblings only
     assert "mjregen.physics" in graph["mjregen.locomotion"]  # the package's own names
     assert find_cycle(graph) == []
+
+
+def test_walking_a_robot_imports_only_what_it_needs(tmp_path):
+    """`mjregen walk` (start-up cost: docs/performance.md) loads neither torch, matplotlib,
+    Ray nor any OpenGL binding."""
+    robot = asset("robots", "paper", "tripod.npy")
+    probe = ("import runpy, sys; sys.argv = ['mjregen', 'walk', %r, '--json', '--settle', '0',"
+             " '--duration', '0']\ntry:\n    runpy.run_module('mjregen', run_name='__main__')\n"
+             "except SystemExit:\n    pass\nprint(sorted(m for m in sys.modules if m.split('.')[0]"
+             " in ('torch', 'matplotlib', 'ray', 'glfw', 'OpenGL')))" % str(robot))
+    done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
+                          cwd=tmp_path, check=True)
+    assert '"stable": true' in done.stdout
+    assert done.stdout.strip().splitlines()[-1] == "[]"
