@@ -88,7 +88,7 @@ def add_physics_choice(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--bonds", choices=("tendons", "beam"),
                         help="voxel pipeline's bond element: 'beam' (the default: one beam "
                              "element per bond) or 'tendons' (8 tendons per bond, the same "
-                             "linear stiffness at 3-4x the CPU time; docs/performance.md)")
+                             "linear stiffness at about 4x the CPU time; docs/performance.md)")
     parser.add_argument("--timestep-rule", choices=("network", "stiffest_bond"),
                         help="time step: 0.75 of Euler's stability limit of the robot's own "
                              "bond network ('network', the voxel pipeline's default) or of a "
