@@ -22,6 +22,7 @@ import traceback
 from dataclasses import dataclass
 from typing import Any, Callable, Generic, Sequence, TypeVar
 
+from mjregen import interrupt
 from mjregen.errors import MjregenError
 
 T = TypeVar("T")
@@ -94,6 +95,7 @@ class SerialBackend(Backend):
     def map(self, fn: Callable[[T], R], items: Sequence[T]) -> list[Outcome[R]]:
         outcomes = []
         for item in items:
+            interrupt.check()
             error: BaseException | None = None
             for attempt in range(1, MAX_ATTEMPTS + 1):
                 try:
@@ -124,6 +126,7 @@ class _ExecutorBackend(Backend):
         submitted = {self._pool.submit(fn, item): i for i, item in enumerate(items)}
         broken = False
         for future in futures.as_completed(submitted):
+            interrupt.check()
             try:
                 results[submitted[future]] = Outcome(future.result(), None, 1)
             except futures.process.BrokenProcessPool:

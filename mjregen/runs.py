@@ -36,6 +36,7 @@ from tqdm import tqdm
 
 from mjregen import __version__
 from mjregen.checkpoint import save_nca
+from mjregen import interrupt
 from mjregen.errors import CheckpointError, MjregenError
 from mjregen.evaluation import PopulationEvaluation
 from mjregen.evolve import GAConfig, GeneticAlgorithm
@@ -265,6 +266,7 @@ def run_evolution(
     bar = tqdm(total=ga_config.generations, initial=ga.generation, disable=not progress,
                desc=f"evolving {out.name}", unit="gen")
     while ga.generation < ga_config.generations:
+        interrupt.check()
         start = time.perf_counter()
         generation = ga.generation
         population = ga.ask()

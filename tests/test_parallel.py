@@ -1,12 +1,14 @@
 """Evaluation backends: same results in the same order, failures contained and retried."""
 
 import os
+import signal
 import sys
 import time
 from pathlib import Path
 
 import pytest
 
+from mjregen import interrupt
 from mjregen.parallel import ProcessBackend, SerialBackend, ThreadBackend, make_backend
 
 
@@ -111,3 +113,21 @@ def test_ray_backend_without_ray_is_a_clear_error(monkeypatch):
     monkeypatch.setitem(sys.modules, "ray", None)  # as if Ray were not installed
     with pytest.raises(BackendError, match="pip install"):
         make_backend("ray", address="ray://127.0.0.1:10001")
+
+
+def test_a_ctrl_c_that_a_finalizer_swallowed_still_stops_the_next_evaluation():
+    """Python drops a KeyboardInterrupt raised inside __del__ (or a weakref callback); the
+    installed handler remembers it, and the backend's loop raises it before the next item."""
+    class Dropped:
+        def __del__(self) -> None:
+            signal.raise_signal(signal.SIGINT)  # the handler runs here; Python ignores it
+
+    restore = interrupt.install()
+    try:
+        Dropped()  # freed at once: its interrupt is swallowed
+        with pytest.raises(KeyboardInterrupt):
+            SerialBackend().map(lambda x: x, [1, 2])
+    finally:
+        restore()
+    interrupt.check()  # restored: nothing pending
+    assert SerialBackend().map(lambda x: x + 1, [1])[0].value == 2

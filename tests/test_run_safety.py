@@ -23,9 +23,9 @@ def mjregen(*args: str, cwd: Path | None = None, env: dict | None = None,
                           text=True, cwd=cwd, env=env, timeout=300, **kwargs)
 
 
-def start(*args: str) -> subprocess.Popen:
+def start(*args: str, env: dict | None = None) -> subprocess.Popen:
     return subprocess.Popen([sys.executable, "-m", "mjregen", *args], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)
+                            stderr=subprocess.PIPE, text=True, env=env)
 
 
 def wait_for(path: Path, process: subprocess.Popen, seconds: float = 120.0) -> None:
@@ -88,12 +88,21 @@ def test_resume_refuses_an_edited_or_corrupt_config(tmp_path):
     assert done.stderr.count("\n") == 1 and "Traceback" not in done.stderr
 
 
-def test_ctrl_c_says_the_checkpoint_is_intact_and_how_to_resume(tmp_path):
+# MUJOCO_GL=disable: the timing in which Python swallowed the interrupt in a finalizer
+@pytest.mark.parametrize("gl", [None, "disable"], ids=["gl-default", "gl-disabled"])
+def test_ctrl_c_says_the_checkpoint_is_intact_and_how_to_resume(tmp_path, gl):
     out = tmp_path / "run"
-    process = start(*SMALL, "--gens", "500", "--backend", "serial", "--out", str(out))
+    env = {k: v for k, v in os.environ.items() if k != "MUJOCO_GL"}
+    if gl is not None:
+        env["MUJOCO_GL"] = gl
+    process = start(*SMALL, "--gens", "500", "--backend", "serial", "--out", str(out), env=env)
     wait_for(out / "checkpoint.npz", process)
     process.send_signal(signal.SIGINT)
-    _, err = process.communicate(timeout=120)
+    try:
+        _, err = process.communicate(timeout=120)
+    except subprocess.TimeoutExpired:
+        process.kill()
+        raise
     assert process.returncode == 130
     assert "Traceback" not in err and "checkpoint" in err and "--resume" in err
     assert f"--out {out}" in err and err.strip().count("\n") == 0

@@ -10,9 +10,10 @@ import argparse
 import os
 import shlex
 import sys
+import threading
 from typing import Callable, Sequence
 
-from mjregen import __version__, gl
+from mjregen import __version__, gl, interrupt
 from mjregen.cli import evolution, regeneration, robots
 from mjregen.errors import MjregenError, OutputExistsError
 
@@ -38,6 +39,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     words = list(sys.argv[1:] if argv is None else argv)
     args = build_parser().parse_args(words)
     handler: Handler = args.handler
+    main_thread = threading.current_thread() is threading.main_thread()
+    restore = interrupt.install() if main_thread else (lambda: None)
+    try:
+        return _run(handler, args, words)
+    finally:
+        restore()
+
+
+def _run(handler: Handler, args: argparse.Namespace, words: list[str]) -> int:
+    """The command, with its errors as one-line messages and exit codes."""
     try:
         _prepare_gl(args)
         return handler(args)
