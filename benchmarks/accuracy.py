@@ -1,6 +1,6 @@
 """Error against run time of the integrators, and numerical stability on stiff and extreme cases.
 
-Two studies (issue #7), each written to ``docs/`` as CSV plus a Markdown table on stdout:
+Two studies, each written to ``docs/`` as CSV plus a Markdown table on stdout:
 
 ``accuracy``: for each robot (2D sheet, the paper's tripod with hard voxels, a 7×7×7 mixed
   block, the paper's evolved multiped), each integrator variant and a sweep of time steps
@@ -458,7 +458,7 @@ class Case:
 
 
 def stability_cases(quick: bool = False) -> list[Case]:
-    """The stiff and extreme cases of issue #7."""
+    """The stiff and extreme cases of the stability study."""
     tripod = paper_robot("tripod")
     paper = BASE["physics"]
     zeta_robot = mixed_block(5, seed=1)
