@@ -79,9 +79,12 @@ def voxel_bodies(layout: RobotLayout, physics: Physics) -> tuple[mujoco.MjSpec, 
 
 
 def _numbers(values: Iterable) -> str:
-    """Plugin configuration text: numbers written exactly (shortest round-trip repr)."""
-    return " ".join(repr(int(v)) if isinstance(v, (int, np.integer)) else repr(float(v))
-                    for v in np.asarray(values).ravel().tolist())
+    """Plugin configuration text: numbers written exactly (shortest round-trip repr;
+    integers and flags as integers)."""
+    array = np.asarray(values).ravel()
+    if array.dtype == np.bool_:
+        array = array.astype(np.int64)
+    return " ".join(map(repr, array.tolist()))
 
 
 def add_voxel_plugin(spec: mujoco.MjSpec, layout: RobotLayout, physics: Physics,
