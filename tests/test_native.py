@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import copy
+import shutil
 import threading
 
 import mujoco
@@ -172,3 +173,18 @@ def test_skipping_mujocos_contact_stages_changes_nothing():
     assert full.run(3000) == ""
     assert np.array_equal(fast.data.qpos, full.data.qpos)
     assert np.array_equal(fast.data.qvel, full.data.qvel)
+
+
+def test_a_compiler_without_march_native_builds_the_generic_library(tmp_path, monkeypatch):
+    """A compiler that rejects -march=native (Apple's clang on arm64) gets the same build
+    without it, instead of no plugin."""
+    real = shutil.which("cc") or shutil.which("gcc")
+    wrapper = tmp_path / "cc-without-march"
+    wrapper.write_text("#!/bin/sh\nfor word in \"$@\"; do case $word in -march=*) "
+                       "echo \"error: unsupported argument to option '-march='\" >&2; "
+                       f"exit 1;; esac; done\nexec {real} \"$@\"\n")
+    wrapper.chmod(0o755)
+    monkeypatch.setenv("CC", str(wrapper))
+    monkeypatch.setenv("MJREGEN_CACHE", str(tmp_path / "cache"))
+    path = native.plugin_library()
+    assert path.is_file() and path.parent == tmp_path / "cache"
