@@ -25,7 +25,7 @@ from mjregen.grid import Robot
 from mjregen.physics.compile import CompiledRobot, compile_robot
 from mjregen.physics.model import MuscleTendons
 from mjregen.physics.params import Physics
-from mjregen.physics.stepper import NativeStepper, unsupported, voxels_only
+from mjregen.physics.stepper import NativeStepper, unsupported_on
 from mjregen.physics.timestep import rotational_dofs
 
 RUNAWAY_SPEED = 5000.0  # voxel lengths per second (5 m/s at 1 mm; walkers reach ~0.3 m/s)
@@ -226,9 +226,8 @@ def _stepper_for(model: mujoco.MjModel, data: mujoco.MjData, physics: Physics,
     choice = getattr(physics.pipeline, "stepper", "mujoco")
     if choice == "mujoco":
         return None
-    reason = "the model has no voxel plugin" if plugin_instance is None else unsupported(model)
-    if not reason and not voxels_only(model, data, plugin_instance):
-        reason = "the model has bodies or joints that are not the voxel plugin's voxels"
+    reason = ("the model has no voxel plugin" if plugin_instance is None
+              else unsupported_on(model, data, plugin_instance))
     if not reason:
         return NativeStepper(model, data, instance=plugin_instance, checked=True)
     if choice == "native":

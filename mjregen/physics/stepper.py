@@ -13,8 +13,9 @@ the plugin's forces and state advance, the same bad-value warnings), to rounding
 lives in the plugin's arrays (rows per quantity, so that the per-voxel loops vectorise);
 ``qpos``, ``qvel``, ``qacc`` and ``qfrc_passive`` are written at its end.
 
-`unsupported(model)` says why a model does not qualify (then ``stepper="auto"`` steps
-with ``mj_step``). Each `NativeStepper.step` call reads the masses, inertias, gravity and
+`unsupported(model)` says why a model does not qualify, `unsupported_on(model, data,
+instance)` also checks that every body is one of the plugin's voxels (then
+``stepper="auto"`` steps with ``mj_step``). Each `NativeStepper.step` call reads the masses, inertias, gravity and
 time step from the model (so changing them between calls acts as in MuJoCo); on creation
 the stepper checks that these give MuJoCo's own mass matrix and gravity force. It does not
 update derived quantities (``xpos``, ``subtree_com``, ...): call ``mj_kinematics`` after
@@ -94,15 +95,12 @@ class NativeStepper:
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, *, instance: int = 0,
                  checked: bool = False) -> None:
         """`instance`: the voxel plugin's instance id; `checked`: the caller has just seen
-        `unsupported(model)` return ""."""
-        reason = "" if checked else unsupported(model)
+        `unsupported_on(model, data, instance)` return ""."""
+        reason = "" if checked else unsupported_on(model, data, instance)
         if reason:
             raise ValueError(f"the native stepper cannot step this model: {reason}")
         self._model, self._data, self._instance = model, data, instance
         self._library = native.library()
-        if not voxels_only(model, data, instance):
-            raise ValueError("the native stepper cannot step this model: it has bodies or "
-                             "joints that are not the voxel plugin's voxels")
         _check_against_mujoco(model, data)
 
     def step(self, n_steps: int, com: np.ndarray | None = None) -> int:
@@ -125,17 +123,22 @@ class NativeStepper:
         done = self._library.mjr_step(self._model._address, self._data._address,
                                       self._instance, int(n_steps), pointer)
         if done < 0:
-            raise ValueError(f"plugin instance {self._instance} is not the voxel plugin"
-                             if done == -1 else "the model has bodies or joints that are not "
-                             "the voxel plugin's voxels")
+            raise ValueError(_STEP_ERRORS[done])
         return done
 
 
-def voxels_only(model: mujoco.MjModel, data: mujoco.MjData, instance: int) -> bool:
-    """Every body but the world is one of the voxel plugin's voxels (instance `instance`),
-    with the joints of a voxel and no others: what ``plugin/step.c`` integrates."""
+_STEP_ERRORS = {-1: "the plugin instance is not the voxel plugin",
+                -2: "the model has bodies or joints that are not the voxel plugin's voxels"}
+
+
+def unsupported_on(model: mujoco.MjModel, data: mujoco.MjData, instance: int) -> str:
+    """`unsupported(model)`, and also why not when a body is not one of the voxels of plugin
+    `instance` (or their joints are not a voxel's): what ``plugin/step.c`` integrates."""
+    reason = unsupported(model)
+    if reason:
+        return reason
     done = native.library().mjr_step(model._address, data._address, instance, 0, None)
-    return done == 0
+    return _STEP_ERRORS.get(done, "")
 
 
 def _check_against_mujoco(model: mujoco.MjModel, data: mujoco.MjData) -> None:
