@@ -597,21 +597,8 @@ void mjr_forces(const mjModel* m, mjData* d, mjrVoxels* v, const mjtNum* stick, 
   for (int n = 0; n < v->nvox; n++) {
     int va = v->vadr[n];
     if (va < 0) continue;
-    double R[9], F[3], T[3];
-    for (int k = 0; k < 9; k += 3) get3(v, MJR_R + k, n, R + k);
-    get3(v, MJR_FORCE, n, F);
-    get3(v, MJR_TORQUE, n, T);
-    if (v->dim == 3) {
-      qfrc[va] += F[0];
-      qfrc[va + 1] += F[1];
-      qfrc[va + 2] += F[2];
-      /* torque into the body frame: R^T T */
-      for (int a = 0; a < 3; a++)
-        qfrc[va + 3 + a] += R[a] * T[0] + R[3 + a] * T[1] + R[6 + a] * T[2];
-    } else {
-      qfrc[va] += F[0];
-      qfrc[va + 1] += F[2];
-      qfrc[va + 2] += T[1];
-    }
+    double g[6];
+    int dofs = mjr_generalized(v->scratch, (size_t)v->nvox, (size_t)n, v->dim == 3, g);
+    for (int k = 0; k < dofs; k++) qfrc[va + k] += g[k];
   }
 }

@@ -163,22 +163,21 @@ static int velocities(const mjrVoxels* v, const double* restrict per_dof, double
   const int three = v->dim == 3, nd = three ? 6 : 3;
   const double* restrict s = v->scratch;
   const double* restrict old = v->state + MJR_QVEL * N;
-  /* generalized forces: 3D force and body-frame torque R^T T; 2D F_x, F_z, T_y */
+  /* generalized forces, added to mj_step's zeroed qfrc_passive (0 + g, as there); one loop
+     per dimension, so that each vectorises */
+  if (three) {
 #pragma GCC ivdep
-  for (size_t n = 0; n < N; n++) {
-    const double* R = s + MJR_R * N + n;
-    double T0 = s[(MJR_TORQUE + 0) * N + n], T1 = s[(MJR_TORQUE + 1) * N + n],
-           T2 = s[(MJR_TORQUE + 2) * N + n];
-    if (three) {
-      for (int a = 0; a < 3; a++) {
-        generalized[a * N + n] = 0.0 + s[(MJR_FORCE + a) * N + n];
-        generalized[(3 + a) * N + n] = 0.0 + (R[a * N] * T0 + R[(3 + a) * N] * T1
-                                              + R[(6 + a) * N] * T2);
-      }
-    } else {
-      generalized[n] = 0.0 + s[MJR_FORCE * N + n];
-      generalized[N + n] = 0.0 + s[(MJR_FORCE + 2) * N + n];
-      generalized[2 * N + n] = 0.0 + T1;
+    for (size_t n = 0; n < N; n++) {
+      double g[6];
+      mjr_generalized(s, N, n, 1, g);
+      for (int k = 0; k < 6; k++) generalized[k * N + n] = 0.0 + g[k];
+    }
+  } else {
+#pragma GCC ivdep
+    for (size_t n = 0; n < N; n++) {
+      double g[6];
+      mjr_generalized(s, N, n, 0, g);
+      for (int k = 0; k < 3; k++) generalized[k * N + n] = 0.0 + g[k];
     }
   }
   /* per_dof rows: applied (nd), gravity (nd), 1 / M_ii (nd) */

@@ -141,6 +141,27 @@ void mjr_voxel_forces(const mjModel* m, mjData* d, mjrVoxels* v, const mjtNum* s
 void mjr_load_state(mjrVoxels* v, const mjData* d);
 void mjr_store_state(const mjrVoxels* v, mjData* d);
 
+/* The generalized force of voxel n (its dofs' order) from the scratch rows s (nvox = N
+   each): 3D the force and the body-frame torque R^T T, 2D (F_x, F_z, T_y); returns the
+   number of dofs (6 or 3). */
+static inline __attribute__((always_inline)) int mjr_generalized(
+    const double* restrict s, size_t N, size_t n, int three, double* out) {
+  const double* R = s + MJR_R * N + n;
+  double T0 = s[MJR_TORQUE * N + n], T1 = s[(MJR_TORQUE + 1) * N + n],
+         T2 = s[(MJR_TORQUE + 2) * N + n];
+  if (!three) {
+    out[0] = s[MJR_FORCE * N + n];
+    out[1] = s[(MJR_FORCE + 2) * N + n];
+    out[2] = T1;
+    return 3;
+  }
+  for (int a = 0; a < 3; a++) {
+    out[a] = s[(MJR_FORCE + a) * N + n];
+    out[3 + a] = R[a * N] * T0 + R[(3 + a) * N] * T1 + R[(6 + a) * N] * T2;
+  }
+  return 6;
+}
+
 /* voxels.c: the instance's state on d (NULL if `instance` is not an mjregen.voxels plugin) */
 mjrVoxels* mjr_instance(const mjModel* m, const mjData* d, int instance);
 
