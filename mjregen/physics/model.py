@@ -183,12 +183,14 @@ def robot_layout(robot: Robot, physics: Physics, clamped: set, elevation: float)
     centres[:, :2] -= masses @ centres[:, :2] / masses.sum()
     centres[:, 2] += elevation - (centres[:, 2].min() - L / 2)
     centres = np.round(centres, 12)  # to the picometre: no 1e-19 residues of the centring
-    bonds = _face_bonds(grid_index, dim)
+    plus, minus = _neighbours(grid_index)  # a voxel missing a face neighbour is surface
+    bonds = _face_bonds(plus, dim)
     is_muscle = [physics.materials[m].is_muscle for _, m in voxels]
     bonds.sort(key=lambda bond: not (is_muscle[bond[0]] or is_muscle[bond[1]]))
     return RobotLayout(dim=dim, voxels=voxels, index_of=index_of, grid_index=grid_index,
                    masses=masses, centres=centres,
-                   surface=_surface(grid_index, dim), bonds=bonds, clamped=clamped)
+                   surface=np.any((plus < 0) | (minus < 0), axis=1), bonds=bonds,
+                   clamped=clamped)
 
 
 def bond_tables(layout: RobotLayout, physics: Physics
@@ -293,24 +295,21 @@ def round_like_mjcf(values: float | Sequence[float] | np.ndarray) -> float | lis
     return [float(f"{float(v):.6g}") for v in values]
 
 
-def _neighbours(grid_index: np.ndarray, step: int) -> np.ndarray:
-    """``(n, dim)`` int: the voxel one `step` (+1 or -1) along each grid axis of each voxel,
-    -1 where there is none."""
+def _neighbours(grid_index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(n, dim)`` int each: the voxel one step along (+) and against (−) each grid axis
+    of each voxel, -1 where there is none."""
     n, dim = grid_index.shape
     slots = np.full(tuple(grid_index.max(axis=0) + 3), -1, dtype=np.int64)  # padded by 1
     slots[tuple((grid_index + 1).T)] = np.arange(n)
-    out = np.empty((n, dim), dtype=np.int64)
-    for axis in range(dim):
-        shifted = grid_index + 1
-        shifted[:, axis] += step
-        out[:, axis] = slots[tuple(shifted.T)]
-    return out
-
-
-def _surface(grid_index: np.ndarray, dim: int) -> np.ndarray:
-    """(n_voxels,) bool: the voxel misses at least one face neighbour."""
-    return np.any(np.concatenate([_neighbours(grid_index, 1), _neighbours(grid_index, -1)],
-                                 axis=1) < 0, axis=1)
+    out = []
+    for step in (1, -1):
+        found = np.empty((n, dim), dtype=np.int64)
+        for axis in range(dim):
+            shifted = grid_index + 1
+            shifted[:, axis] += step
+            found[:, axis] = slots[tuple(shifted.T)]
+        out.append(found)
+    return out[0], out[1]
 
 
 def near_pairs(grid_index: np.ndarray, index_of: dict) -> list[tuple[int, int]]:
@@ -333,10 +332,9 @@ def _series(x: float, y: float) -> float:
     return 2.0 * x * y / (x + y)
 
 
-def _face_bonds(grid_index: np.ndarray, dim: int) -> list[tuple[int, int, int]]:
-    """(i, j, world axis) for each face-neighbour pair, j the +axis neighbour of i, in
-    voxel order and grid-axis order within a voxel."""
-    plus = _neighbours(grid_index, 1)
+def _face_bonds(plus: np.ndarray, dim: int) -> list[tuple[int, int, int]]:
+    """(i, j, world axis) for each face-neighbour pair, j the +axis neighbour of i (`plus`
+    of `_neighbours`), in voxel order and grid-axis order within a voxel."""
     return [(int(i), int(plus[i, a]), WORLD_AXES[dim][a]) for i, a in np.argwhere(plus >= 0)]
 
 
