@@ -1,1 +1,1 @@
-"""Data shipped with mjregen: the paper's robots, evolved NCAs, walkers, regrowth NCAs (package `mjregen.assets` once installed; read with `mjregen.resources.asset`)."""
+"""Data shipped with mjregen: the paper's robots, evolved NCAs, walkers, regrowth NCAs, the paper engine's reference paths (package `mjregen.assets` once installed; read with `mjregen.resources.asset`)."""

@@ -103,16 +103,25 @@ class Run:
     kick: float = 0.0
 
 
+# the largest self-collision envelope of MuJoCo's spheres that no grid neighbour reaches
+# (they cannot exclude by bond hops): contact from 1.25 L
+TWIN_COLLISION_RADIUS = 0.625
+
+
 def mujoco_twin(physics: Physics) -> Physics:
     """The pure-MuJoCo pipeline nearest a voxel-pipeline `physics`: MuJoCo's tendons (the
     voxel plugin's tendon bonds) and "point" contacts (the engine floor's nearest) with the
-    floor's spring and damper, the same bond model, self-collision radius and time-step
-    rule."""
+    floor's spring and damper, the same bond model and time-step rule, the self-collision
+    radius (at most `TWIN_COLLISION_RADIUS` where the plugin excludes by bond hops) and
+    MuJoCo's viscosity for the drag (the plugin's "stokes" drag law)."""
     voxel = physics.pipeline
+    radius = voxel.collision_radius
+    if voxel.collision_hops > 0:
+        radius = min(radius, TWIN_COLLISION_RADIUS)
     return physics.replace(pipeline=MujocoPipeline(
         contact_shape="point", bond_model=voxel.bond_model,
         contact_stiffness=voxel.floor_stiffness, contact_damping=voxel.floor_damping,
-        collision_radius=voxel.collision_radius, timestep_rule=voxel.timestep_rule))
+        collision_radius=radius, timestep_rule=voxel.timestep_rule))
 
 
 def evaluate(run: Run) -> dict:

@@ -4,7 +4,8 @@ The reference trajectories (recorded from the paper's Voxelyze build) cover smal
 mechanical cases and the paper's three robots. This module sets up each
 case in mjregen with a given `Physics`, runs it and returns the same measures the
 reference's `summary.json` holds, plus traces for plots. The reference numbers that the
-cases are judged by are copied here (`REFERENCE`), so tests need no data files.
+cases are judged by are copied here (`REFERENCE`), and the engine's centre-of-mass path of
+each paper robot ships with the package (`ENGINE_PATHS`), so tests need no other data.
 
 Units: SI (m, s) unless a name says otherwise ("vox" = voxel lengths).
 """
@@ -27,6 +28,8 @@ from mjregen.physics.simulation import Simulation, simulation_of
 from mjregen.resources import asset
 
 PAPER_ROBOTS = asset("robots", "paper")
+# the engine's COM path of each paper robot, every 1 ms (benchmarks/fidelity.py --write-paths)
+ENGINE_PATHS = "engine_robot_paths.npz"
 
 # From the reference's summary.json (paper engine, its default settings).
 REFERENCE = {
@@ -36,9 +39,9 @@ REFERENCE = {
     "slide_bar_v0.1": {"slide": 0.35094e-3, "stop_after": 7.1e-3},
     "bar_red_green": {"len_min": 0.92949e-3, "len_max": 1.0e-3},
     "cantilever": {"sag_end": 0.2844656e-3, "sag_max": 0.5185711e-3, "sag_max_t": 8.913e-3},
-    "biped": {"distance": 40.4904},
-    "tripod": {"distance": 43.5776},
-    "multiped": {"distance": 42.8010},
+    "biped": {"distance": 40.4904, "heading": -111.30, "airborne": 0.4461},
+    "tripod": {"distance": 43.5776, "heading": -35.44, "airborne": 0.3543},
+    "multiped": {"distance": 42.8010, "heading": 10.00, "airborne": 0.0682},
 }
 # COM height after the 0.05 s settle and its mean while walking (from the trajectories).
 ROBOT_FILES = {"biped": "biped_selfcol_on", "tripod": "tripod_selfcol_on",
@@ -182,8 +185,57 @@ def cantilever(physics: Physics) -> CaseResult:
                       stable=not reason)
 
 
+def engine_path(name: str) -> tuple[np.ndarray, np.ndarray]:
+    """The paper engine's COM path of paper robot `name`: t ``(n,)`` s every 1 ms from 0,
+    COM ``(n, 3)`` m in its lattice frame (voxel (i, j, k) starts at ((i, j, k) + ½)·L)."""
+    with np.load(asset("reference", ENGINE_PATHS)) as data:
+        return data[f"{name}_t"], data[f"{name}_com"]
+
+
+def heading_of(start: np.ndarray, end: np.ndarray) -> float:
+    """Degrees counter-clockwise from +x of the planar move from `start` to `end`."""
+    move = np.asarray(end)[:2] - np.asarray(start)[:2]
+    return math.degrees(math.atan2(move[1], move[0]))
+
+
+def path_difference(t: np.ndarray, com: np.ndarray, name: str, settle: float) -> float:
+    """m: RMS distance between a planar COM path (t ``(n,)`` s, com ``(n, 3)`` m) and the
+    engine's for robot `name`, both from their COM at the end of the settle, every 1 ms
+    of the walk."""
+    t_ref, com_ref = engine_path(name)
+    grid = t_ref[t_ref >= settle - 1e-9]
+    grid = grid[grid <= t[-1] + 1e-9]
+    ours = np.stack([np.interp(grid, t, com[:, k]) for k in range(2)], axis=1)
+    theirs = np.stack([np.interp(grid, t_ref, com_ref[:, k]) for k in range(2)], axis=1)
+    gap = (ours - ours[0]) - (theirs - theirs[0])
+    return float(np.sqrt(np.mean(np.sum(gap**2, axis=1))))
+
+
+def airborne_fraction(sim: Simulation, t: np.ndarray, x: np.ndarray, settle: float,
+                      physics: Physics, materials: list[int]) -> float:
+    """Fraction of the samples after `settle` (t ``(n,)`` s, voxel centres x ``(n, v, 3)``
+    m) in which no voxel touches the floor: every centre above its current half size
+    (L/2, scaled by its muscle strain), the engine's contact test."""
+    L = physics.scene.voxel_size
+    plus = np.array([physics.materials[m].strain_amplitude
+                     if physics.materials[m].is_muscle and physics.materials[m].phase_sign > 0
+                     else 0.0 for m in materials])
+    minus = np.array([physics.materials[m].strain_amplitude
+                      if physics.materials[m].is_muscle and physics.materials[m].phase_sign < 0
+                      else 0.0 for m in materials])
+    walking = np.flatnonzero(t >= settle - 1e-12)
+    flying = 0
+    for k in walking:
+        e_plus, e_minus = sim.strains(float(t[k]))
+        half = 0.5 * L * (1.0 + plus * e_plus + minus * e_minus)
+        flying += bool(np.all(x[k, :, 2] > half))
+    return flying / len(walking)
+
+
 def paper_robot(physics: Physics, name: str) -> CaseResult:
-    """A paper robot, 0.05 s settle + 0.5 s walk: distance (vox) and COM heights (m)."""
+    """A paper robot, 0.05 s settle + 0.5 s walk: distance (vox), heading (deg), the planar
+    COM path's RMS difference from the engine's (m), the fraction of the walk airborne, COM
+    heights (m)."""
     robot = Robot.load(PAPER_ROBOTS / f"{name}.npy")
     compiled = compile_robot(robot, physics=physics)
     sim = simulation_of(compiled)
@@ -202,10 +254,18 @@ def paper_robot(physics: Physics, name: str) -> CaseResult:
     k0 = int(np.argmin(np.abs(t - settle)))
     distance = float(np.linalg.norm(com[-1, :2] - com[k0, :2]) / L)
     walking = t >= settle
+    if reason:
+        return CaseResult(name, {"distance": math.nan, "heading": math.nan,
+                                 "com_rms": math.nan, "airborne": math.nan,
+                                 "z_settled": math.nan, "z_mean": math.nan},
+                          {"com": (t, com)}, stable=False)
+    materials = [m for _, m in robot.voxels()]
     return CaseResult(name, {
-        "distance": distance if not reason else math.nan,
+        "distance": distance, "heading": heading_of(com[k0], com[-1]),
+        "com_rms": path_difference(t, com, name, settle),
+        "airborne": airborne_fraction(sim, t, x, settle, physics, materials),
         "z_settled": com[k0, 2], "z_mean": com[walking, 2].mean()},
-        {"com": (t, com)}, stable=not reason)
+        {"com": (t, com)})
 
 
 CASES: dict[str, Callable[[Physics], CaseResult]] = {

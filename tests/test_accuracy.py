@@ -33,10 +33,11 @@ def cantilever_error(integrator: str, dt: float, reference: np.ndarray) -> float
 def CANTILEVER_RUN(dt: float, integrator: str) -> Run:
     """A 3-voxel hard cantilever clamped at one end, floor off, released under gravity:
     a smooth ODE (no contacts, no muscles), so each integrator shows its textbook order.
-    Tendon bonds: Euler steps them in the voxel plugin, RK4 as MuJoCo's tendons, the same
-    ODE (tests/test_native.py; beams differ from tendons by a third of Euler's error)."""
+    Tendon bonds and Stokes drag: Euler steps them in the voxel plugin, RK4 as MuJoCo's
+    tendons and viscosity, the same ODE (tests/test_native.py; beams differ from tendons by
+    a third of Euler's error)."""
     robot = Robot.from_body(np.full((3, 1, 1), Material.HARD, dtype=np.int8))
-    return Run(robot, Physics().replace(floor=False, bond_element="tendons"),
+    return Run(robot, Physics().replace(floor=False, bond_element="tendons", drag_law="stokes"),
                settle=0.004, measured=0.0, dt=dt, integrator=integrator, clamped=((1, 1, 1),))
 
 
@@ -65,6 +66,8 @@ def test_other_integrators_run_the_voxel_pipelines_mujoco_twin():
     assert twin.pipeline == MujocoPipeline(
         contact_shape="point", bond_model="timoshenko", contact_stiffness=2.0,
         contact_damping=0.7, collision_radius=0.5, timestep_rule="network")
+    # the engine's 0.75 L envelope (bond hops excluded): MuJoCo's largest without neighbours
+    assert accuracy.mujoco_twin(Physics()).pipeline.collision_radius == 0.625
     run = CANTILEVER_RUN(1e-5, "rk4")
     assert evaluate(run)["dt"] == 1e-5
     assert accuracy.mujoco_twin(run.physics).pipeline.bond_model == "euler_bernoulli"
@@ -151,12 +154,14 @@ def heavily_damped_block(safety: float | None = None) -> Run:
 @pytest.mark.parametrize("zeta", [0.4, 2.0])
 def test_time_step_rule_puts_the_limit_at_safety_one(bond_model, zeta):
     """`stiffest_bond_step` (rule "stiffest_bond") is Euler's stability limit of a block's
-    damped bond network: a kicked 4³ block runs at safety 1.0 and diverges at 1.25, whatever
-    the bond model and damping (measured on 4³ and 5³ blocks: stable at 1.0, unstable at
-    1.1, for ζ 0.4, 1 and 2)."""
+    damped bond network of tendon-law beams: a kicked 4³ block runs at safety 1.0 and
+    diverges at 1.25, whatever the bond model and damping (measured on 4³ and 5³ blocks:
+    stable at 1.0, unstable at 1.1, for ζ 0.4, 1 and 2; the engine's beams, with softer
+    torsion, are stable at longer steps)."""
     def run(safety: float) -> bool:
         physics = Physics().replace(bond_damping_ratio=zeta, bond_model=bond_model,
-                                    timestep_safety=safety, timestep_rule="stiffest_bond")
+                                    timestep_safety=safety, timestep_rule="stiffest_bond",
+                                    beam_law="tendons", beam_damping="stiffness_proportional")
         return evaluate(Run(block(4, Material.SOFT), physics, settle=0.03, measured=0.0,
                             kick=1e-3))["stable"]
 

@@ -20,6 +20,7 @@ from mjregen.checkpoint import load_nca
 from mjregen.fitness import locomotion_fitness
 from mjregen.grid import Material, Robot
 from mjregen.physics import Physics, Scene, VoxelPipeline, migrate_physics
+from mjregen.physics.migrate import PHYSICS_FORMAT
 from mjregen.physics.simulation import simulate
 
 NCA_DIR = Path(__file__).resolve().parents[1] / "assets" / "nca"
@@ -101,8 +102,12 @@ def test_shipped_physics_descriptions_migrate_to_what_they_were_evaluated_with(k
         bond_element="tendons", bond_model=scene["bond_model"],
         floor_stiffness=scene["contact_stiffness"], floor_damping=scene["contact_damping"],
         collision_radius=scene["collision_radius"] if scene["self_collision"] else 0.0,
-        timestep_rule="stiffest_bond", stepper="mujoco")
+        timestep_rule="stiffest_bond", stepper="mujoco",
+        # the rules before format 4
+        beam_law="tendons", beam_damping="stiffness_proportional", friction_stop="energy",
+        collision_stiffness=scene["contact_stiffness"],
+        collision_damping=scene["contact_damping"], collision_hops=0, drag_law="stokes")
     migrated = migrate_physics(old)
-    assert migrated["format"] == 3 and migrated["pipeline"]["name"] == "voxel"
+    assert migrated["format"] == PHYSICS_FORMAT and migrated["pipeline"]["name"] == "voxel"
     assert Physics.from_dict(migrated) == physics
     assert Physics.from_dict(json.loads(json.dumps(physics.to_dict()))) == physics

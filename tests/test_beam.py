@@ -2,10 +2,12 @@
 per bond.
 
 Mechanics against theory (axial, cantilever, shear, muscle strain) run for both elements in
-test_physics_mechanics.py; here: the beam's linear stiffness and damping equal the tendon
-bundle's, so does its law along the axis at large strain, it exerts nothing under rigid
-motion, conserves momentum and angular momentum exactly, keeps mirror symmetry, and is
-refused where it cannot run.
+test_physics_mechanics.py; here: with the tendons' law and damping the beam's linear
+stiffness and damping equal the tendon bundle's, so does its law along the axis at large
+strain; with the paper engine's (the default) its axial spring is linear, its torsion is
+G·J/L and its dampers are the engine's; it exerts nothing under rigid motion, conserves
+momentum (and angular momentum, but for the engine's moment damping), keeps mirror
+symmetry, and is refused where it cannot run.
 """
 
 from __future__ import annotations
@@ -35,11 +37,15 @@ def block_robot(dim: int) -> Robot:
     return Robot.from_body(body if dim == 3 else body[:, 0, :])
 
 
+TENDON_BEAMS = {"beam_law": "tendons", "beam_damping": "stiffness_proportional"}
+
+
 def passive_forces(robot: Robot, element: str, qpos: np.ndarray, qvel: np.ndarray,
-                   time: float = 0.0) -> tuple[np.ndarray, mujoco.MjData]:
+                   time: float = 0.0, **changes: object) -> tuple[np.ndarray, mujoco.MjData]:
     """qfrc_passive of the bonds alone (no floor, gravity, drag or self-collision)."""
     physics = Physics().replace(bond_element=element, floor=False, gravity=0.0,
-                                drag_ratio=0.0, collision_radius=0.0, settle_time=0.0)
+                                drag_ratio=0.0, collision_radius=0.0, settle_time=0.0,
+                                **changes)
     sim = simulation_of(compile_robot(robot, physics=physics))
     sim.data.qpos[:], sim.data.qvel[:], sim.data.time = qpos, qvel, time
     mujoco.mj_forward(sim.model, sim.data)
@@ -72,13 +78,15 @@ def displaced(model: mujoco.MjModel, dq: np.ndarray) -> np.ndarray:
 
 @pytest.mark.parametrize("dim", [2, 3])
 def test_linear_stiffness_and_damping_equal_the_tendon_bundles(dim):
-    """Small displacements (1e-8 m ~ 1e-5 strain), rotations (1e-5 rad), velocities and
-    angular velocities: the beam's force changes equal the tendons' to 1e-4 (the tendons'
-    values are rounded to the 6 digits MJCF keeps, which leaves them ~2e-5 N at rest)."""
+    """Beams with the tendons' law and damping. Small displacements (1e-8 m ~ 1e-5 strain),
+    rotations (1e-5 rad), velocities and angular velocities: the beam's force changes
+    equal the tendons' to 1e-4 (the tendons' values are rounded to the 6 digits MJCF keeps,
+    which leaves them ~2e-5 N at rest)."""
     robot = block_robot(dim)
     model = plugin_model(robot)
     zero = np.zeros(model.nv)
-    rest = {e: passive_forces(robot, e, model.qpos0, zero)[0] for e in ("tendons", "beam")}
+    rest = {e: passive_forces(robot, e, model.qpos0, zero, **TENDON_BEAMS)[0]
+            for e in ("tendons", "beam")}
     assert np.abs(rest["beam"]).max() < 1e-12
     linear, angular = random_parts(model, np.random.default_rng(dim))
     cases = [(displaced(model, split(1e-8 * linear, 0 * angular)), zero),
@@ -86,7 +94,8 @@ def test_linear_stiffness_and_damping_equal_the_tendon_bundles(dim):
              (model.qpos0, split(1e-3 * linear, 0 * angular)),
              (model.qpos0, split(0 * linear, angular))]
     for qpos, qvel in cases:
-        change = {e: passive_forces(robot, e, qpos, qvel)[0] - rest[e] for e in rest}
+        change = {e: passive_forces(robot, e, qpos, qvel, **TENDON_BEAMS)[0] - rest[e]
+                  for e in rest}
         error = np.linalg.norm(change["beam"] - change["tendons"])
         assert error < 1e-4 * np.linalg.norm(change["tendons"])
 
@@ -94,15 +103,15 @@ def test_linear_stiffness_and_damping_equal_the_tendon_bundles(dim):
 @pytest.mark.parametrize("dim", [2, 3])
 @pytest.mark.parametrize("strain", [-0.14, -0.05, 0.05, 0.10])
 def test_axial_law_is_the_tendon_bundles(dim, strain):
-    """Stretched or compressed far beyond the linear range (a muscle's 14 %), a two-voxel
-    bar pulls back with its tendons' force, which stiffens in tension and softens in
-    compression (3D: +10 % at +10 %, −14 % at −14 % against E·L·strain)."""
+    """beam_law "tendons": stretched or compressed far beyond the linear range (a muscle's
+    14 %), a two-voxel bar pulls back with its tendons' force, which stiffens in tension and
+    softens in compression (3D: +10 % at +10 %, −14 % at −14 % against E·L·strain)."""
     robot = Robot.from_body(np.ones((2, 1, 1) if dim == 3 else (2, 1), dtype=np.int8))
     model = plugin_model(robot)
     qpos = model.qpos0.copy()
     qpos[model.nq // 2] += strain * 1e-3  # second voxel's x
-    forces = {e: passive_forces(robot, e, qpos, np.zeros(model.nv))[0] for e in ("tendons",
-                                                                                  "beam")}
+    forces = {e: passive_forces(robot, e, qpos, np.zeros(model.nv), **TENDON_BEAMS)[0]
+              for e in ("tendons", "beam")}
     x = model.nv // 2  # second voxel's x force (the first voxel's is dof 0)
     beam = forces["beam"]
     assert beam[x] == pytest.approx(forces["tendons"][x], rel=2e-4)  # tendons: ~2e-5 N at rest
@@ -123,22 +132,30 @@ def world_wrench(data: mujoco.MjData, qfrc: np.ndarray) -> tuple[np.ndarray, np.
     return force, torque
 
 
-def test_large_deformation_conserves_momentum_and_angular_momentum():
+@pytest.mark.parametrize("law", ["engine", "tendons"])
+@pytest.mark.parametrize("damping", ["engine", "stiffness_proportional"])
+def test_large_deformation_conserves_momentum_and_angular_momentum(law, damping):
     """Bends of ~0.3 rad, strains of ~20 %, fast random velocities: the bonds' forces sum
     to zero and so do their moments about any point (to rounding), so a free robot can
-    neither push nor spin itself."""
+    neither push nor spin itself — except through the engine's moment damping (half its
+    force damping), which turns a moving robot's angular momentum but never at rest."""
     robot = block_robot(3)
     model = plugin_model(robot)
     rng = np.random.default_rng(7)
     linear, angular = random_parts(model, rng)
     qpos = displaced(model, split(2e-4 * linear, 0.3 * angular))
-    qvel = split(*random_parts(model, rng))
-    qfrc, data = passive_forces(robot, "beam", qpos, qvel, time=0.01)
-    force, torque = world_wrench(data, qfrc)
-    scale = np.abs(qfrc[:3]).max()
-    assert scale > 1e-3  # the bonds are loaded
-    assert np.abs(force).max() < 1e-12 * scale / 1e-3
-    assert np.abs(torque).max() < 1e-15 * scale / 1e-3
+    moving = split(*random_parts(model, rng))
+    for qvel in (moving, np.zeros(model.nv)):
+        qfrc, data = passive_forces(robot, "beam", qpos, qvel, time=0.01, beam_law=law,
+                                    beam_damping=damping)
+        force, torque = world_wrench(data, qfrc)
+        scale = np.abs(qfrc[:3]).max()
+        assert scale > 1e-3  # the bonds are loaded
+        assert np.abs(force).max() < 1e-12 * scale / 1e-3
+        if damping == "stiffness_proportional" or qvel is not moving:
+            assert np.abs(torque).max() < 1e-15 * scale / 1e-3
+        else:
+            assert np.abs(torque).max() > 1e-9 * scale / 1e-3
 
 
 def test_rigid_motion_exerts_no_force():
@@ -219,3 +236,63 @@ def test_twist_moment_is_linear_in_the_angle_beyond_small_bends():
         assert first[0] == pytest.approx(-second[0], rel=1e-12)
         ratios.append(-second[0] / angle)
     assert np.ptp(ratios) < 2e-7 * np.mean(ratios)
+
+
+def two_voxels() -> tuple[Robot, mujoco.MjModel]:
+    robot = Robot.from_body(np.ones((2, 1, 1), dtype=np.int8))
+    return robot, plugin_model(robot)
+
+
+@pytest.mark.parametrize("strain", [-0.14, -0.05, 0.05, 0.10])
+def test_engine_beam_axial_spring_is_hookean(strain):
+    """The paper engine's beam: the axial force is E·A·strain (E·L·ΔL) in tension and
+    compression alike, to rounding, at a muscle's strains too."""
+    robot, model = two_voxels()
+    qpos = model.qpos0.copy()
+    qpos[7] += strain * 1e-3  # second voxel's x
+    qfrc, _ = passive_forces(robot, "beam", qpos, np.zeros(model.nv))
+    E, L = 1e7, 1e-3
+    assert qfrc[6] == pytest.approx(-E * L * strain * L, rel=1e-12)
+    assert qfrc[0] == -qfrc[6]
+
+
+def test_engine_beam_torsion_is_shear_modulus_times_polar_moment_over_length():
+    """Twisted by θ about the bond axis, the pair resists with G·J/L·θ, J = L⁴/6 and
+    G = E/(2(1+ν)) (the engine's a2), whatever the transverse model."""
+    robot, model = two_voxels()
+    E, nu, L, theta = 1e7, 0.35, 1e-3, 0.01
+    expected = E / (2 * (1 + nu)) * L**4 / 6 / L * theta
+    for bond_model in ("euler_bernoulli", "timoshenko"):
+        qpos = model.qpos0.copy()
+        mujoco.mju_axisAngle2Quat(qpos[10:14], np.array([1.0, 0.0, 0.0]), theta)
+        qfrc, _ = passive_forces(robot, "beam", qpos, np.zeros(model.nv), bond_model=bond_model)
+        assert -qfrc[9] == pytest.approx(expected, rel=1e-9)
+
+
+def test_engine_beam_damping_halves_the_moments_ratio():
+    """The engine's dampers, c = 2ζ sqrt(m k) on the force rows and half of it on the
+    moment rows (ζ = 0.5), with its beam's stiffness rows (a1 = E·L, b2 = E·L²/2,
+    b3 = E·L³/6, a2 = G·L³/6). A relative axial speed u meets 2ζ sqrt(m E L)·u. The second
+    voxel turning at ω about z (bending) meets the moment ζ sqrt(m/(E L))·2·b3·ω and pushes
+    its neighbour with the force 2ζ sqrt(m/(E L))·b2·ω; turning about the bond axis
+    (torsion) it meets ζ sqrt(m/(G L))·a2·ω."""
+    robot, model = two_voxels()
+    E, nu, L, m, zeta = 1e7, 0.35, 1e-3, 1e-3, 0.5
+    G = E / (2 * (1 + nu))
+    u, omega = 0.01, 2.0
+    qvel = np.zeros(model.nv)
+    qvel[6] = u
+    qfrc, _ = passive_forces(robot, "beam", model.qpos0, qvel)
+    assert -qfrc[6] == pytest.approx(2 * zeta * np.sqrt(m * E * L) * u, rel=1e-9)
+    beta = zeta * np.sqrt(m / (E * L))  # the moments' damping per stiffness
+    qvel = np.zeros(model.nv)
+    qvel[11] = omega  # second voxel about z (body frame = world at rest)
+    qfrc, _ = passive_forces(robot, "beam", model.qpos0, qvel)
+    assert -qfrc[11] == pytest.approx(beta * 2 * (E * L**3 / 6) * omega, rel=1e-9)
+    assert abs(qfrc[7]) == pytest.approx(2 * beta * (E * L**2 / 2) * omega, rel=1e-9)
+    qvel = np.zeros(model.nv)
+    qvel[9] = omega  # about the bond axis x
+    qfrc, _ = passive_forces(robot, "beam", model.qpos0, qvel)
+    assert -qfrc[9] == pytest.approx(zeta * np.sqrt(m / (G * L)) * G * L**3 / 6 * omega,
+                                     rel=1e-9)
+    assert np.abs(qfrc[[6, 7, 8, 10, 11]]).max() < 1e-12 * abs(qfrc[9]) / L

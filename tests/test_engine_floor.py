@@ -63,6 +63,28 @@ def test_kicked_voxel_slides_on_kinetic_friction_then_sticks_dead():
     assert sim.data.qpos[0] == x_stop
 
 
+@pytest.mark.parametrize("rule", ["momentum", "energy"])
+def test_a_slow_voxel_pushed_between_kinetic_and_static_friction(rule):
+    """Resting on the floor, pushed along x with 0.75 m g (between μk N = 0.5 m g and
+    μs N = m g), given the speed v = 0.6 g dt. The engine's rule ("momentum"): the friction
+    impulse μk N dt is below its momentum m v, so it slides, and the push outweighs kinetic
+    friction: it accelerates at 0.25 g. The energy rule: after the step its momentum
+    m v + (0.75 − 0.5) m g dt = 0.85 m g dt is below m g dt, the step's friction work would
+    exceed its kinetic energy, so it stops, and static friction then holds it."""
+    compiled, sim = voxel(physics=NO_DRAG.replace(friction_stop=rule))
+    run(sim, 0.02)
+    sim.data.qfrc_applied[0] = 0.75 * M * G
+    dt = sim.model.opt.timestep
+    sim.data.qvel[0] = 0.6 * G * dt
+    x0 = sim.data.qpos[0]
+    run(sim, 0.01)
+    if rule == "momentum":
+        assert sim.data.qvel[0] == pytest.approx(0.6 * G * dt + 0.25 * G * 0.01, rel=0.02)
+    else:
+        assert sim.data.qvel[0] == pytest.approx(0.0, abs=1e-15)
+        assert abs(sim.data.qpos[0] - x0) < 1e-12
+
+
 def tilt(sim, degrees: float) -> None:
     theta = math.radians(degrees)
     sim.model.opt.gravity[:] = [G * math.sin(theta), 0.0, -G * math.cos(theta)]
@@ -146,12 +168,13 @@ def test_engine_floor_is_stepped_with_euler_and_needs_a_penalty_stiffness():
                              contact_shape="point").pipeline.integrator == "rk4"
 
 
-def colliding_pair(speed: float):
-    """Two soft voxels two grid cells apart (not neighbours: they collide), no gravity, no
+def colliding_pair(speed: float, **changes: object):
+    """Two soft voxels two grid cells apart (not bonded: they collide), no gravity, no
     floor, no drag, flying at each other at ±`speed` m/s along x."""
     body = np.zeros((3, 1, 1), dtype=np.int8)
     body[0], body[2] = 1, 1
-    physics = Physics().replace(floor=False, gravity=0.0, drag_ratio=0.0, settle_time=0.0)
+    physics = Physics().replace(floor=False, gravity=0.0, drag_ratio=0.0, settle_time=0.0,
+                                **changes)
     compiled = compile_robot(Robot.from_body(body), physics=physics)
     sim = simulation_of(compiled)
     left, right = np.argsort(compiled.voxel_index[:, 0])
@@ -159,24 +182,69 @@ def colliding_pair(speed: float):
     return compiled, sim, left, right
 
 
-def test_self_collision_repels_non_neighbours_and_conserves_momentum():
-    """Centres 2 L apart, spheres of 0.625 L: contact below 1.25 L. A spring–damper
-    collision (k = 2 E L, c = 0.8·2 sqrt(m E L), repulsion only) bounces them back with
-    restitution < 1, momentum exactly conserved, penetration below the undamped bound
-    v sqrt(μ/k), μ = m/2 the reduced mass."""
-    speed = 0.05
-    compiled, sim, left, right = colliding_pair(speed)
+def collide(speed: float, **changes: object) -> tuple[float, float, float]:
+    """(closest centre distance m, left and right voxels' speeds after 30 ms m/s)."""
+    compiled, sim, left, right = colliding_pair(speed, **changes)
     closest = np.inf
     for _ in range(round(0.03 / compiled.timestep)):
         assert sim.run(1) == ""
-        gap = sim.data.qpos[7 * right] - sim.data.qpos[7 * left]
-        closest = min(closest, gap)
-    v_left, v_right = sim.data.qvel[6 * left], sim.data.qvel[6 * right]
+        closest = min(closest, sim.data.qpos[7 * right] - sim.data.qpos[7 * left])
+    return closest, sim.data.qvel[6 * left], sim.data.qvel[6 * right]
+
+
+def test_self_collision_is_the_engines_undamped_spring_and_conserves_momentum():
+    """The engine's collision (the default): centres 2 L apart, spheres of 0.75 L, contact
+    below 1.5 L; an undamped spring k = E·L between them. An elastic bounce: the voxels come
+    back with their speed (to the time step's error), momentum exactly conserved, the
+    deepest penetration that of the linear spring, 2v sqrt(μ/k) with μ = m/2."""
+    speed = 0.05
+    closest, v_left, v_right = collide(speed)
     assert v_left < 0.0 < v_right  # bounced
-    assert v_right - v_left < 2 * speed  # lost energy to the damper
+    assert (v_right - v_left) / (2 * speed) == pytest.approx(1.0, abs=0.01)
     assert abs(v_left + v_right) < 1e-12  # momentum
-    penetration = 1.25 * L - closest
-    assert 0.0 < penetration <= speed * math.sqrt(M / 2 / K_FLOOR)
+    k = 1e7 * L
+    assert 1.5 * L - closest == pytest.approx(2 * speed * math.sqrt(M / 2 / k), rel=0.02)
+
+
+def test_self_collision_with_the_floors_spring_and_damper_loses_energy():
+    """collision_stiffness 2 and damping 0.8 (the floor's constants), spheres of 0.625 L:
+    restitution < 1, momentum exactly conserved, penetration below the undamped bound."""
+    speed = 0.05
+    closest, v_left, v_right = collide(speed, collision_radius=0.625, collision_stiffness=2.0,
+                                       collision_damping=0.8)
+    assert v_left < 0.0 < v_right
+    assert v_right - v_left < 0.9 * 2 * speed
+    assert abs(v_left + v_right) < 1e-12
+    assert 0.0 < 1.25 * L - closest <= 2 * speed * math.sqrt(M / 2 / K_FLOOR)
+
+
+def test_voxels_within_the_collision_hops_never_collide():
+    """Two columns of three voxels, diagonal neighbours (√2 L apart, inside the 1.5 L
+    contact), joined by one voxel on top: the bottom pair is 6 bonds apart, the middle pair
+    4, the top pair 2. At rest (no gravity, floor or drag; bonds at rest pull nothing) a
+    pair that collides pushes apart with k (1.5 − √2) L along its diagonal: with
+    collision_hops 3 the bottom and middle pairs, with 5 the bottom one only, with 0 (grid
+    neighbours never collide) none."""
+    body = np.zeros((2, 2, 3), dtype=np.int8)
+    body[0, 0, :] = body[1, 1, :] = 1
+    body[0, 1, 2] = 1  # the bridge on top
+    robot = Robot.from_body(body)
+    push = 1e7 * L * (1.5 - math.sqrt(2.0)) * L / math.sqrt(2.0)  # N along x and y each
+    for hops, pushed in ((3, {0, 1}), (5, {0}), (0, set())):
+        physics = Physics().replace(floor=False, gravity=0.0, drag_ratio=0.0,
+                                    settle_time=0.0, collision_hops=hops,
+                                    collision_radius=0.75 if hops else 0.7)
+        compiled = compile_robot(robot, physics=physics)
+        sim = simulation_of(compiled)
+        mujoco.mj_forward(sim.model, sim.data)
+        for n, (x, y, z) in enumerate(compiled.voxel_index - compiled.voxel_index.min(axis=0)):
+            if (x, y) != (0, 0):
+                continue
+            force = sim.data.qfrc_passive[6 * n: 6 * n + 3]
+            if z in pushed:  # away from its partner at (1, 1, z)
+                assert force[:2] == pytest.approx([-push, -push], rel=1e-9)
+            else:
+                assert np.abs(force).max() < 1e-12
 
 
 def test_self_collision_candidate_list_never_changes_the_result(monkeypatch):

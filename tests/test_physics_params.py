@@ -34,11 +34,17 @@ def test_defaults_are_the_papers():
     assert (scene.gravity, scene.frequency, scene.waveform) == (27.468, 40.0, "contract")
     assert scene.timing(3) == (0.05, 0.5) and scene.timing(2) == (1.0, 0.25)
     assert soft.shear_modulus == pytest.approx(1e7 / 2.7)
-    # the voxel plugin with the engine's floor, shear-rigid beams, self-collision
+    # the voxel plugin with the engine's floor, beams, damping, self-collision and drag
     assert physics.pipeline == VoxelPipeline() and physics.pipeline.name == "voxel"
     voxel = physics.pipeline
     assert (voxel.bond_element, voxel.bond_model) == ("beam", "euler_bernoulli")
-    assert (voxel.floor_stiffness, voxel.floor_damping, voxel.collision_radius) == (2.0, 0.8, 0.625)
+    assert (voxel.beam_law, voxel.beam_damping) == ("engine", "engine")
+    assert scene.bond_damping_ratio == 0.5 and scene.drag_ratio == 0.001
+    assert (voxel.floor_stiffness, voxel.floor_damping, voxel.friction_stop) == (
+        2.0, 0.8, "momentum")
+    assert (voxel.collision_radius, voxel.collision_stiffness, voxel.collision_damping,
+            voxel.collision_hops) == (0.75, 1.0, 0.0, 3)
+    assert voxel.drag_law == "engine"
     assert (voxel.timestep_rule, voxel.stepper) == ("network", "auto")
     assert physics == paper_physics()
     mujoco = MujocoPipeline()
@@ -60,7 +66,8 @@ def test_timestep_rule_is_the_euler_limit_of_the_damped_bond_network():
     assert step(timoshenko, k_soft) == pytest.approx(0.132768 / math.sqrt(k_soft), rel=1e-5)
     # the rule depends on the bond model, not on the pipeline
     assert step(timoshenko.replace(pipeline="mujoco"), k_soft) == step(timoshenko, k_soft)
-    default = Physics()  # shear-rigid, ζ 0.4, safety 0.75: r = 4.4365, ζr = 1.7746
+    default = Physics().replace(bond_damping_ratio=0.4)  # shear-rigid, ζ 0.4, safety 0.75:
+    # r = 4.4365, ζr = 1.7746
     assert step(default, k_soft) == pytest.approx(0.75 * 0.118271 / math.sqrt(k_soft),
                                                   rel=1e-4)
     assert step(default, 5 * k_soft) == pytest.approx(step(default, k_soft) / math.sqrt(5))
@@ -113,8 +120,17 @@ def test_bad_scene_raises_naming_the_parameter(kwargs, word):
     # the engine floor is a penalty spring (the paper's: 2.0 E·L)
     (dict(floor_stiffness=None), "floor_stiffness must be a number"),
     (dict(floor_damping=-0.1), "floor_damping"),
-    (dict(collision_radius=0.75), "collision_radius"),
+    (dict(collision_radius=1.0), "collision_radius"),
+    (dict(collision_radius=0.75, collision_hops=0), "collision_radius"),
     (dict(collision_radius=-0.1), "collision_radius"),
+    (dict(collision_hops=-1), "collision_hops must be an integer"),
+    (dict(collision_hops=1.5), "collision_hops must be an integer"),
+    (dict(collision_stiffness=0.0), "collision_stiffness"),
+    (dict(collision_damping=-1.0), "collision_damping"),
+    (dict(friction_stop="never"), "friction_stop must be one of"),
+    (dict(drag_law="fluid"), "drag_law must be one of"),
+    (dict(beam_law="spring"), "beam_law must be one of"),
+    (dict(beam_damping="rayleigh"), "beam_damping must be one of"),
     (dict(timestep_rule="fastest"), "timestep_rule"),
     (dict(stepper="fast"), "stepper must be one of"),
 ])
@@ -167,8 +183,9 @@ def test_replace_with_an_unknown_field_names_both_field_sets():
     scene = "bond_damping_ratio, drag_ratio, floor, frequency, gravity, measured_time, " \
             "settle_time, timestep_safety, voxel_size, waveform"
     assert f"scene: {scene};" in message
-    assert "voxel: bond_element, bond_model, collision_radius, floor_damping, " \
-           "floor_stiffness, stepper, timestep_rule" in message
+    assert "voxel: beam_damping, beam_law, bond_element, bond_model, collision_damping, " \
+           "collision_hops, collision_radius, collision_stiffness, drag_law, floor_damping, " \
+           "floor_stiffness, friction_stop, stepper, timestep_rule" in message
     with pytest.raises(PhysicsParameterError) as mujoco:
         Physics().replace(pipeline="mujoco", bond_element="beam")
     message = str(mujoco.value)
@@ -223,7 +240,7 @@ def test_physics_pickles_and_round_trips_through_json():
                                       contact_shape="box", contact_stiffness=None)):
         assert pickle.loads(pickle.dumps(physics)) == physics  # sent to worker processes
         values = physics.to_dict()
-        assert values["format"] == PHYSICS_FORMAT == 3
+        assert values["format"] == PHYSICS_FORMAT == 4
         assert set(values) == {"format", "materials", "scene", "pipeline"}
         assert values["pipeline"]["name"] == physics.pipeline.name
         assert Physics.from_dict(json.loads(json.dumps(values))) == physics
@@ -266,6 +283,19 @@ FORMAT_1_SCENE = {
 }
 
 
+# the voxel pipeline's rules before format 4 (the floor's constants for self-collision)
+def rules_before_format_4(floor_stiffness: float = 2.0, floor_damping: float = 0.8,
+                          collision_radius: float = 0.625) -> dict:
+    return dict(beam_law="tendons", beam_damping="stiffness_proportional",
+                friction_stop="energy", collision_radius=collision_radius,
+                collision_stiffness=floor_stiffness, collision_damping=floor_damping,
+                collision_hops=0, drag_law="stokes")
+
+
+# Physics() before format 4
+FORMAT_3_DEFAULT = Physics().replace(bond_damping_ratio=0.4, **rules_before_format_4())
+
+
 def format_1(**scene) -> dict:
     materials = Physics().to_dict()["materials"]
     return {"materials": materials, "scene": {**FORMAT_1_SCENE, **scene}}
@@ -276,7 +306,7 @@ def test_format_1_engine_floor_migrates_to_the_voxel_pipeline():
     voxel pipeline's floor's, `self_collision` folds into the radius."""
     migrated = migrate_physics(format_1())
     assert migrated["format"] == PHYSICS_FORMAT and "format" not in format_1()
-    assert Physics.from_dict(format_1()) == Physics()  # the old defaults are today's
+    assert Physics.from_dict(format_1()) == FORMAT_3_DEFAULT  # the old defaults
     physics = Physics.from_dict(format_1(
         settle_time=0.2, gravity=10.0, bond_damping_ratio=0.5, contact_stiffness=3.0,
         contact_damping=0.7, self_collision=False, bond_element="tendons",
@@ -285,13 +315,13 @@ def test_format_1_engine_floor_migrates_to_the_voxel_pipeline():
     assert physics.scene == Scene(settle_time=0.2, gravity=10.0, bond_damping_ratio=0.5)
     assert physics.pipeline == VoxelPipeline(
         bond_element="tendons", bond_model="timoshenko", floor_stiffness=3.0,
-        floor_damping=0.7, collision_radius=0.0, stepper="native",
-        timestep_rule="stiffest_bond")
+        floor_damping=0.7, stepper="native", timestep_rule="stiffest_bond",
+        **rules_before_format_4(3.0, 0.7, collision_radius=0.0))
     # a description from before beam bonds, the native stepper and the network rule: what
     # it was evolved with (tendons, mj_step, the stiffest-bond step); other missing fields
     # take the old class defaults
     old = {"materials": format_1()["materials"], "scene": {"contact_shape": "engine"}}
-    assert Physics.from_dict(old) == Physics().replace(
+    assert Physics.from_dict(old) == FORMAT_3_DEFAULT.replace(
         bond_element="tendons", stepper="mujoco", timestep_rule="stiffest_bond")
     # MuJoCo's Euler integrator only
     with pytest.raises(PhysicsParameterError, match="Euler"):
@@ -303,7 +333,7 @@ def test_format_1_mujoco_contacts_migrate_to_the_mujoco_pipeline():
     (shear-rigid bonds, damping 0.8, self-collision 0.625) are written out."""
     physics = Physics.from_dict(format_1(contact_shape="point", bond_element="tendons",
                                          integrator="rk4"))
-    assert physics.scene == Scene()
+    assert physics.scene == Scene(bond_damping_ratio=0.4)
     assert physics.pipeline == MujocoPipeline(
         contact_shape="point", bond_model="euler_bernoulli", contact_stiffness=2.0,
         contact_damping=0.8, collision_radius=0.625, integrator="rk4",
@@ -359,7 +389,7 @@ def test_format_2_flat_scene_migrates_to_the_same_physics():
     described = Physics().to_dict()
     described.update(format=2, scene=dict(FORMAT_2_DEFAULT_SCENE))
     del described["pipeline"]
-    assert Physics.from_dict(described) == Physics()
+    assert Physics.from_dict(described) == FORMAT_3_DEFAULT
     described["scene"]["contact_shape"] = "sphere"
     described["scene"]["bond_element"] = "tendons"
     migrated = Physics.from_dict(described)
@@ -374,3 +404,21 @@ def test_descriptions_without_materials_or_of_a_newer_format_are_refused():
         Physics.from_dict({**Physics().to_dict(), "format": 99})
     with pytest.raises(PhysicsParameterError, match="pipeline must be"):
         Physics().replace(pipeline=None)
+
+
+def test_format_3_voxel_pipeline_migrates_to_its_rules_of_the_time():
+    """Format 3 (before the engine's beam, damping, friction, collision and drag laws were
+    options): a voxel pipeline gets the rules it ran with, the floor's constants for its
+    self-collision; a MuJoCo pipeline is unchanged."""
+    described = FORMAT_3_DEFAULT.to_dict()
+    described["format"] = 3
+    for key in ("beam_law", "beam_damping", "friction_stop", "collision_stiffness",
+                "collision_damping", "collision_hops", "drag_law"):
+        del described["pipeline"][key]
+    described["pipeline"].update(floor_stiffness=3.0, floor_damping=0.6)
+    physics = Physics.from_dict(described)
+    assert physics == FORMAT_3_DEFAULT.replace(floor_stiffness=3.0, floor_damping=0.6,
+                                               collision_stiffness=3.0, collision_damping=0.6)
+    mujoco = Physics().replace(pipeline="mujoco", contact_shape="box").to_dict()
+    mujoco["format"] = 3
+    assert migrate_physics(mujoco)["pipeline"] == mujoco["pipeline"]

@@ -3,7 +3,8 @@
 A description (`Physics.to_dict`) carries ``"format"``; one without it is format 1 (run
 folders and asset manifests written before formats were recorded: one flat scene, fields
 added later missing). Format 2: the same flat scene, complete. Format 3: the shared scene
-and one pipeline with its parameters. `migrate_physics` brings
+and one pipeline with its parameters. Format 4: the voxel pipeline's beam law and damping,
+friction stop rule, collision constants and exclusion, and drag law. `migrate_physics` brings
 any format to `PHYSICS_FORMAT` step by step, stating what each step assumes, so that an old
 run resumes, and an old walker replays, with exactly the physics it was evolved with.
 """
@@ -14,7 +15,7 @@ import copy
 
 from mjregen.errors import PhysicsParameterError
 
-PHYSICS_FORMAT = 3
+PHYSICS_FORMAT = 4
 
 
 # format 1: one flat scene; a field missing from a description took the value below (the
@@ -85,7 +86,24 @@ def _format_2_to_3(description: dict) -> dict:
             "scene": {key: old[key] for key in _SHARED}, "pipeline": pipeline}
 
 
-_STEPS = {1: _format_1_to_2, 2: _format_2_to_3}
+def _format_3_to_4(description: dict) -> dict:
+    """Format 3 -> 4: a voxel pipeline without the fields of format 4 had the rules that
+    are now its options: beams with the tendons' axial law and torsion, stiffness-
+    proportional damping, sliding stopped by the energy test, self-collision with the
+    floor's spring and damper, grid neighbours excluded, one Stokes drag for all voxels."""
+    pipeline = dict(description["pipeline"])
+    if pipeline.get("name") == "voxel":
+        added = {"beam_law": "tendons", "beam_damping": "stiffness_proportional",
+                 "friction_stop": "energy",
+                 "collision_stiffness": pipeline.get("floor_stiffness", 2.0),
+                 "collision_damping": pipeline.get("floor_damping", 0.8),
+                 "collision_hops": 0, "drag_law": "stokes",
+                 "collision_radius": pipeline.get("collision_radius", 0.625)}
+        pipeline = {**pipeline, **{k: v for k, v in added.items() if k not in pipeline}}
+    return {**description, "pipeline": pipeline}
+
+
+_STEPS = {1: _format_1_to_2, 2: _format_2_to_3, 3: _format_3_to_4}
 
 
 def migrate_physics(description: dict) -> dict:

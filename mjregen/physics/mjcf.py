@@ -28,9 +28,12 @@ from mjregen.physics.model import (
     BeamTable,
     BondTable,
     RobotLayout,
+    collision_constants,
+    drag_viscosity,
     engine_floor_constants,
     near_pairs,
     round_like_mjcf,
+    voxel_drag,
     voxel_name,
 )
 from mjregen.physics.params import POINT_RADIUS, Physics
@@ -99,7 +102,8 @@ def add_voxel_plugin(spec: mujoco.MjSpec, layout: RobotLayout, physics: Physics,
     n_bonds = len(layout.bonds)
     weights = np.zeros((n_bonds, 2))
     weights[: len(beams.muscle_weights)] = beams.muscle_weights
-    drag = drag_viscosity(physics)
+    collision_stiffness, collision_damping = collision_constants(layout, physics)
+    drag_linear, drag_rotational = voxel_drag(layout, physics)
     grid3 = np.zeros((len(layout.voxels), 3), dtype=int)
     grid3[:, 3 - layout.dim:] = layout.grid_index
     beam = pipeline.bond_element == "beam"
@@ -119,11 +123,14 @@ def add_voxel_plugin(spec: mujoco.MjSpec, layout: RobotLayout, physics: Physics,
         "static_friction": _numbers([p.friction for p in props]),
         "kinetic_friction": _numbers([p.friction if p.kinetic_friction is None
                                       else p.kinetic_friction for p in props]),
+        "friction_stop": pipeline.friction_stop,
         "collision_radius": repr(pipeline.collision_radius * L),
         "collision_skin": repr(COLLISION_SKIN * L),
+        "collision_stiffness": _numbers(collision_stiffness),
+        "collision_damping": _numbers(collision_damping),
+        "collision_hops": str(pipeline.collision_hops),
         "grid": _numbers(grid3), "collides": _numbers(layout.surface.astype(int)),
-        "drag_linear": repr(3.0 * math.pi * L * drag),
-        "drag_rotational": repr(math.pi * L**3 * drag),
+        "drag_linear": _numbers(drag_linear), "drag_rotational": _numbers(drag_rotational),
     }
     if beam:
         config.update(bond_stiffness=_numbers(beams.stiffness),
@@ -148,19 +155,6 @@ def add_voxel_plugin(spec: mujoco.MjSpec, layout: RobotLayout, physics: Physics,
     # the plugin is every force: MuJoCo has no contact or constraint to find or solve
     spec.option.disableflags |= (mujoco.mjtDisableBit.mjDSBL_CONTACT
                                  | mujoco.mjtDisableBit.mjDSBL_CONSTRAINT)
-
-
-def drag_viscosity(physics: Physics) -> float:
-    """Pa·s: the viscosity whose Stokes drag on a voxel (3πμL) is the scene's drag,
-    2·drag_ratio·sqrt(m E L) of a soft voxel (0: none)."""
-    scene = physics.scene
-    if scene.drag_ratio <= 0.0:
-        return 0.0
-    L = scene.voxel_size
-    soft = physics.materials[Material.SOFT]
-    drag = 2.0 * scene.drag_ratio * math.sqrt(physics.voxel_mass(Material.SOFT)
-                                              * soft.youngs_modulus * L)
-    return round_like_mjcf(drag / (3.0 * math.pi * L))
 
 
 def add_mujoco_bonds(spec: mujoco.MjSpec, bodies: list, layout: RobotLayout,

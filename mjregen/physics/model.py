@@ -19,10 +19,12 @@ E·L, G·A/L = G·L and E·I/L = E·L³/12. Choosing b = L·sqrt(G/2E) = L / (2 
 the 3D bond exact with k_ax = 0 (8 tendons), and the same b with a = L/√6 makes the 2D bond
 exact with k_ax = E·L/2 (2 axial + 2 diagonal tendons). E and G of a bond are the two
 voxels' half-lengths in series (2 E₁E₂/(E₁+E₂)); so every material of a robot must share
-one Poisson ratio. `BeamTable` is the same linear stiffness as one beam element per bond.
+one Poisson ratio. `BeamTable` is one beam element per bond: with beam_law "tendons" the
+same linear stiffness as the bundle, with "engine" the paper engine's beam (linear axial
+spring, torsion G·J/L).
 
-Bond damping is stiffness-proportional: c = 2ζ sqrt(m k), m the mean voxel mass (the paper
-engine's convention). Muscles: a bond's axial rest length is L·(s₁+s₂)/2 with sᵢ the voxels'
+The tendons' damping is stiffness-proportional: c = 2ζ sqrt(m k), m the mean voxel mass; the
+beams' follows `VoxelPipeline.beam_damping`. Muscles: a bond's axial rest length is L·(s₁+s₂)/2 with sᵢ the voxels'
 linear scales; each tendon's is sqrt((L s̄)² + d²), d its fixed lateral extent. Tendon
 values are rounded as MJCF writes them (`round_like_mjcf`), so the pure-MuJoCo model's file
 reproduces its tendons bit for bit.
@@ -38,10 +40,12 @@ from typing import Sequence
 import numpy as np
 
 from mjregen.errors import CompileError, PhysicsParameterError
-from mjregen.grid import Robot
-from mjregen.physics.params import Physics
+from mjregen.grid import Material, Robot
+from mjregen.physics.params import Physics, VoxelPipeline
 
 WORLD_AXES = {2: (0, 2), 3: (0, 1, 2)}  # grid axis -> world axis
+# the paper engine damps each voxel's angular momentum with ten times its slow damping ratio
+ENGINE_ROTATIONAL_DRAG = 10.0
 
 
 def voxel_name(index: Sequence[int]) -> str:
@@ -114,14 +118,17 @@ class BeamTable:
     Attributes:
       ends: ``(n, 2)`` int, voxels (body order) i and j, j the neighbour of i along +axis.
       axis: ``(n,)`` int, the bond's axis (0, 1, 2 = x, y, z) in the voxels' rest frames.
-      stiffness: ``(n, 4)`` float: axial E·L and transverse G·L in N/m, bending E·L³/12 and
-        torsion G·L³/3 in N·m/rad (E, G of the bond, as its tendons).
-      axial_law: ``(n, 3)`` float, the bond's tendons along its axis: total stiffness of
-        the straight tendons k₀ (N/m), of the diagonals k_d (N/m), and the diagonals' lateral
-        extent squared D² (m²); the axial force at centre distance l is
-        k₀ (l − l₀) + k_d (s − s₀) l / s, s = sqrt(l² + D²), s₀ = sqrt(l₀² + D²), whose slope
-        at l₀ = L is stiffness[:, 0]. Stiffening in tension, softening in compression.
-      beta: ``(n,)`` s, damping per stiffness 2ζ sqrt(m/(E·L)) (C = beta·K, as the tendons).
+      stiffness: ``(n, 4)`` float: axial E·L and transverse G_b·L in N/m (G_b the
+        bond_model's: E shear-rigid, G Timoshenko), bending E·L³/12 and torsion in N·m/rad
+        (beam_law "engine": G·L³/6, the engine's G·J/L; "tendons": G_b·L³/3), E and G of
+        the bond (harmonic means of its voxels').
+      axial_law: ``(n, 3)`` float, the axial force at centre distance l,
+        k₀ (l − l₀) + k_d (s − s₀) l / s with s = sqrt(l² + D²), s₀ = sqrt(l₀² + D²): k₀
+        (N/m), k_d (N/m), D² (m²). beam_law "engine": linear, k₀ = E·L, k_d = 0; "tendons":
+        the bond's straight tendons k₀ and diagonals k_d with lateral extent D (slope E·L
+        at l₀ = L, stiffening in tension, softening in compression).
+      beta: ``(n, 3)`` s, damping per stiffness of the force rows, the bending and the
+        torsion (`VoxelPipeline.beam_damping`).
       muscle_weights: ``(m, 2)`` float, (w₊, w₋) of the driven bonds.
     """
 
@@ -134,7 +141,7 @@ class BeamTable:
 
     @property
     def count(self) -> int:
-        return len(self.beta)
+        return len(self.ends)
 
 
 def bond_geometry(poisson_ratio: float, voxel_size: float, *,
@@ -201,7 +208,11 @@ def bond_tables(layout: RobotLayout, physics: Physics
     Raises:
       PhysicsParameterError: the robot's materials have different Poisson ratios.
     """
-    scene, bond_model = physics.scene, physics.pipeline.bond_model
+    scene, pipeline = physics.scene, physics.pipeline
+    bond_model = pipeline.bond_model
+    beams_as_voxel = isinstance(pipeline, VoxelPipeline)
+    engine_beam = beams_as_voxel and pipeline.beam_law == "engine"
+    engine_damping = beams_as_voxel and pipeline.beam_damping == "engine"
     L = scene.voxel_size
     ratios = {physics.materials[m].poisson_ratio for _, m in layout.voxels}
     if len(ratios) > 1:
@@ -222,14 +233,21 @@ def bond_tables(layout: RobotLayout, physics: Physics
                   else _series(p_i.shear_modulus, p_j.shear_modulus))
         k_bond = e_bond * L
         max_k_per_m = max(max_k_per_m, k_bond / min(masses[i], masses[j]))
-        damping_per_stiffness = (2.0 * scene.bond_damping_ratio
-                                 * math.sqrt(0.5 * (masses[i] + masses[j]) / k_bond))
+        m_bond = 0.5 * (masses[i] + masses[j])
+        damping_per_stiffness = 2.0 * scene.bond_damping_ratio * math.sqrt(m_bond / k_bond)
+        shear = _series(p_i.shear_modulus, p_j.shear_modulus)
         bond_weights = [0.0, 0.0]
         for props in (p_i, p_j):
             if props.is_muscle:
                 bond_weights[0 if props.phase_sign > 0 else 1] += 0.5 * props.strain_amplitude
-        beam_stiffness.append((e_bond * L, g_bond * L, e_bond * L**3 / 12.0, g_bond * L**3 / 3.0))
-        beam_beta.append(damping_per_stiffness)
+        torsion = shear * L**3 / 6.0 if engine_beam else g_bond * L**3 / 3.0
+        beam_stiffness.append((e_bond * L, g_bond * L, e_bond * L**3 / 12.0, torsion))
+        if engine_damping:
+            zeta = scene.bond_damping_ratio
+            beam_beta.append((damping_per_stiffness, zeta * math.sqrt(m_bond / k_bond),
+                              zeta * math.sqrt(m_bond / (shear * L))))
+        else:
+            beam_beta.append((damping_per_stiffness,) * 3)
         if p_i.is_muscle or p_j.is_muscle:
             beam_weights.append(bond_weights)
         key = (axis, e_bond, g_bond, damping_per_stiffness)
@@ -259,12 +277,17 @@ def bond_tables(layout: RobotLayout, physics: Physics
                       stiffness=per_tendon("stiffness", ()), damping=per_tendon("damping", ()),
                       rest=per_tendon("rest", ()), bond=tendon_bond,
                       lateral=per_tendon("lateral", ()))
+    stiffness = np.array(beam_stiffness, dtype=float).reshape(-1, 4)
+    if engine_beam:  # linear: k₀ = E·L, no diagonals
+        axial_law = np.zeros((len(stiffness), 3))
+        axial_law[:, 0] = stiffness[:, 0]
+    else:
+        axial_law = np.array([kind_tendons[k]["law"] for k in kind_of_bond],
+                             dtype=float).reshape(-1, 3)
     beams = BeamTable(ends=bond_ends, axis=np.array([axis for _, _, axis in layout.bonds],
                                                      dtype=int),
-                      stiffness=np.array(beam_stiffness, dtype=float).reshape(-1, 4),
-                      axial_law=np.array([kind_tendons[k]["law"] for k in kind_of_bond],
-                                         dtype=float).reshape(-1, 3),
-                      beta=np.array(beam_beta, dtype=float),
+                      stiffness=stiffness, axial_law=axial_law,
+                      beta=np.array(beam_beta, dtype=float).reshape(-1, 3),
                       muscle_weights=np.array(beam_weights, dtype=float).reshape(-1, 2))
     muscles = None
     if beam_weights:  # driven bonds come first (`robot_layout`), so do their tendons
@@ -282,6 +305,47 @@ def engine_floor_constants(layout: RobotLayout, physics: Physics
     EL = np.array([physics.materials[m].youngs_modulus * L for _, m in layout.voxels])
     return (pipeline.floor_stiffness * EL,
             pipeline.floor_damping * 2.0 * np.sqrt(layout.masses * EL))
+
+
+def collision_constants(layout: RobotLayout, physics: Physics
+                        ) -> tuple[np.ndarray, np.ndarray]:
+    """``(n_voxels,)`` N/m and N·s/m: each voxel's self-collision spring
+    collision_stiffness·E·L and damper collision_damping·2 sqrt(m E L); a colliding pair
+    takes the harmonic mean of its two (the engine's pair: the harmonic-mean modulus)."""
+    pipeline, L = physics.pipeline, physics.scene.voxel_size
+    EL = np.array([physics.materials[m].youngs_modulus * L for _, m in layout.voxels])
+    return (pipeline.collision_stiffness * EL,
+            pipeline.collision_damping * 2.0 * np.sqrt(layout.masses * EL))
+
+
+def drag_viscosity(physics: Physics) -> float:
+    """Pa·s: the viscosity whose Stokes drag on a voxel (3πμL) is the scene's drag,
+    2·drag_ratio·sqrt(m E L) of a soft voxel (0: none)."""
+    scene = physics.scene
+    if scene.drag_ratio <= 0.0:
+        return 0.0
+    L = scene.voxel_size
+    soft = physics.materials[Material.SOFT]
+    drag = 2.0 * scene.drag_ratio * math.sqrt(physics.voxel_mass(Material.SOFT)
+                                              * soft.youngs_modulus * L)
+    return round_like_mjcf(drag / (3.0 * math.pi * L))
+
+
+def voxel_drag(layout: RobotLayout, physics: Physics) -> tuple[np.ndarray, np.ndarray]:
+    """``(n_voxels,)`` N·s/m and N·m·s: each voxel's linear and rotational drag under the
+    voxel pipeline's `drag_law` (see `VoxelPipeline`), from the scene's drag_ratio ζ."""
+    scene, L = physics.scene, physics.scene.voxel_size
+    n = len(layout.voxels)
+    if scene.drag_ratio <= 0.0:
+        return np.zeros(n), np.zeros(n)
+    if physics.pipeline.drag_law == "stokes":
+        viscosity = drag_viscosity(physics)
+        return (np.full(n, 3.0 * math.pi * L * viscosity),
+                np.full(n, math.pi * L**3 * viscosity))
+    E = np.array([physics.materials[m].youngs_modulus for _, m in layout.voxels])
+    inertia = layout.masses * L**2 / 6.0
+    return (2.0 * scene.drag_ratio * np.sqrt(layout.masses * E * L),
+            2.0 * ENGINE_ROTATIONAL_DRAG * scene.drag_ratio * np.sqrt(inertia * E * L**3))
 
 
 def round_like_mjcf(values: float | Sequence[float] | np.ndarray) -> float | list[float]:

@@ -30,6 +30,10 @@ BOND_MODELS = ("timoshenko", "euler_bernoulli")
 BOND_ELEMENTS = ("beam", "tendons")
 TIMESTEP_RULES = ("network", "stiffest_bond")
 STEPPERS = ("auto", "native", "mujoco")
+FRICTION_STOPS = ("momentum", "energy")
+DRAG_LAWS = ("engine", "stokes")
+BEAM_LAWS = ("engine", "tendons")
+BEAM_DAMPINGS = ("engine", "stiffness_proportional")
 CONTACT_SHAPES = ("box", "sphere", "point")
 INTEGRATORS = ("euler", "rk4")
 POINT_RADIUS = 1e-6  # contact_shape "point": radius of the centre sphere, in voxel lengths
@@ -138,8 +142,8 @@ class Scene:
         0.05 s, 2D 1.0 s). The muscles start at its end.
       measured_time: s of actuation that the distance counts; None = the paper's (3D 0.5 s,
         2D 0.25 s).
-      bond_damping_ratio: ζ of the bonds, relative to one voxel's mass (the paper's
-        convention: c = 2 ζ sqrt(m k)).
+      bond_damping_ratio: ζ of the bonds, relative to one voxel's mass (c = 2 ζ sqrt(m k)
+        of a bond's force; the paper engine's BondDampingZ 1 damps with half of it, 0.5).
       drag_ratio: ζ of a drag on every voxel, force −2ζ sqrt(m E_soft L)·v (the paper
         engine's "slow" global damping, ζ = 0.001): MuJoCo's Stokes drag of each voxel's
         inertia box (viscosity), one coefficient for all materials, set from the soft
@@ -156,7 +160,7 @@ class Scene:
     waveform: str = "contract"
     settle_time: float | None = None
     measured_time: float | None = None
-    bond_damping_ratio: float = 0.4
+    bond_damping_ratio: float = 0.5
     drag_ratio: float = 0.001
     floor: bool = True
     timestep_safety: float = 0.75
@@ -192,11 +196,20 @@ class VoxelPipeline:
     first use).
 
     Attributes:
-      bond_element: "beam" (one co-rotated beam element per bond, linear in shear, bending
-        and torsion in the bond's mid frame like the paper engine's beam, along its axis the
-        tendon bundle's law) or "tendons" (8 spring tendons per 3D bond, 4 in 2D,
-        calibrated to beam theory). The same linear stiffness either way; beams cost about
-        half the CPU time.
+      bond_element: "beam" (one co-rotated beam element per bond in the bond's mid frame,
+        like the paper engine's beam; `beam_law`, `beam_damping`) or "tendons" (8 spring
+        tendons per 3D bond, 4 in 2D, calibrated to beam theory, stiffness-proportional
+        dampers). Beams cost about half the CPU time.
+      beam_law: "engine" (the paper engine's beam element: axial force E·L times the
+        strain, linear; torsion G·J/L with J = L⁴/6 and G = E/(2(1+ν))) or "tendons"
+        (the tendon bundle's axial law, stiffening in tension, and torsion G_b·L³/3 with
+        G_b the bond_model's transverse modulus).
+      beam_damping: "engine" (the paper engine's: each force row damped with
+        c = 2ζ sqrt(m k), each moment row with half of that, ζ the scene's
+        bond_damping_ratio, so the rates of the force rows are damped with
+        2ζ sqrt(m/(E·L)) per stiffness, of the bending with ζ sqrt(m/(E·L)), of the
+        torsion with ζ sqrt(m/(G·L))) or "stiffness_proportional" (C = βK, one
+        β = 2ζ sqrt(m/(E·L)) for every row, as the tendons).
       bond_model: "euler_bernoulli" (shear-rigid: transverse stiffness 12EI/L³ = E·L, the
         paper engine's beam) or "timoshenko" (shear stiffness G·L from the Poisson ratio).
       floor_stiffness: the floor's penalty spring per voxel in units of the voxel's E·L (the
@@ -207,9 +220,23 @@ class VoxelPipeline:
         within a step.
       floor_damping: the floor's damper in units of 2 sqrt(m E L) (the engine's 0.8; it may
         pull, as in the engine).
-      collision_radius: self-collision sphere radius in voxel lengths (the engine's
-        collision envelope, 0.625: voxels repel from a centre distance of 1.25 L); voxels that
-        are face, edge or corner neighbours never collide. 0 = no self-collision.
+      friction_stop: when a sliding voxel sticks: "momentum" (the paper engine: when the
+        step's friction impulse μ_k N dt reaches its momentum m|v|; a voxel with no
+        horizontal velocity at all is at rest) or "energy" (when the step's friction work
+        would exceed its kinetic energy).
+      collision_radius: self-collision sphere radius in voxel lengths, at the voxel's
+        current size (the paper engine's 0.75: voxels repel from a centre distance of
+        1.5 L). 0 = no self-collision.
+      collision_stiffness: a colliding pair's spring in units of E·L, E the harmonic mean of
+        the two voxels' moduli (the engine's 1: its bond's axial stiffness).
+      collision_damping: a colliding pair's damper in units of 2 sqrt(m E L), harmonic mean
+        of the two (the engine's 0: undamped).
+      collision_hops: voxels within this many bonds of each other never collide (the
+        engine's 3); 0: face, edge and corner grid neighbours never collide.
+      drag_law: the drag_ratio ζ's law. "engine" (the paper engine's slow damping): each
+        voxel −2ζ sqrt(m E L)·v and −2·10ζ sqrt(I E L³)·ω with its own modulus E (hard
+        voxels are damped more) and I = m L²/6; "stokes": one coefficient for all, the
+        soft voxel's 2ζ sqrt(m E L), and a cube's Stokes rotational drag (L²/3 of it).
       timestep_rule: "network" (the limit of the robot's own linearised bond network and
         floor: exact for the linear network) or "stiffest_bond" (of a block of its
         stiffest bond: the stiffest topology; smaller steps).
@@ -221,20 +248,39 @@ class VoxelPipeline:
 
     name: ClassVar[str] = "voxel"
     bond_element: str = "beam"
+    beam_law: str = "engine"
+    beam_damping: str = "engine"
     bond_model: str = "euler_bernoulli"
     floor_stiffness: float = 2.0
     floor_damping: float = 0.8
-    collision_radius: float = 0.625
+    friction_stop: str = "momentum"
+    collision_radius: float = 0.75
+    collision_stiffness: float = 1.0
+    collision_damping: float = 0.0
+    collision_hops: int = 3
+    drag_law: str = "engine"
     timestep_rule: str = "network"
     stepper: str = "auto"
 
     def __post_init__(self) -> None:
         _choice("bond_element", self.bond_element, BOND_ELEMENTS)
+        _choice("beam_law", self.beam_law, BEAM_LAWS)
+        _choice("beam_damping", self.beam_damping, BEAM_DAMPINGS)
         _choice("bond_model", self.bond_model, BOND_MODELS)
         _check("floor_stiffness", self.floor_stiffness, low=0.0)
         _check("floor_damping", self.floor_damping, low=0.0, low_open=False)
+        _choice("friction_stop", self.friction_stop, FRICTION_STOPS)
+        if isinstance(self.collision_hops, bool) or not isinstance(self.collision_hops, int) \
+                or self.collision_hops < 0:
+            raise PhysicsParameterError(
+                f"collision_hops must be an integer >= 0, got {self.collision_hops!r}")
+        # face neighbours sit 1 L apart: only the bonds keep them from colliding
+        limit = 1.0 if self.collision_hops > 0 else math.sqrt(2.0) / 2
         _check("collision_radius", self.collision_radius, low=0.0, low_open=False,
-               high=math.sqrt(2.0) / 2, high_open=True)
+               high=limit, high_open=True)
+        _check("collision_stiffness", self.collision_stiffness, low=0.0)
+        _check("collision_damping", self.collision_damping, low=0.0, low_open=False)
+        _choice("drag_law", self.drag_law, DRAG_LAWS)
         _choice("timestep_rule", self.timestep_rule, TIMESTEP_RULES)
         _choice("stepper", self.stepper, STEPPERS)
 

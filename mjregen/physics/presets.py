@@ -14,25 +14,23 @@ from mjregen.physics.params import (
 
 
 def paper_physics() -> Physics:
-    """The paper's engine (Voxelyze, evosoro build) as closely as MuJoCo allows: the voxel
-    pipeline with its defaults, `Physics()`.
-
-    Measured on its reference cases (docs/fidelity.md):
-    - floor: the engine's own: a penalty spring 2·E·L and damper 0.8·2 sqrt(m E L) on each
-      voxel's centre below its current half size, static friction 1.0 with a stick state,
-      kinetic friction 0.5;
-    - bonds: shear-rigid beams ("euler_bernoulli"), the engine's beam element (transverse
-      stiffness E·L = 12EI/L³); with Timoshenko bonds the multiped's legs sag and it walks a
-      fifth as far; one beam element per bond (as close to the engine as the tendon bundle,
-      half the CPU time);
-    - self-collision, spheres of radius 0.625 L (the engine's collision envelope);
-    - bond damping ratio 0.4: the engine damps half the relative velocity of a bond
-      (ζ = 1 there ≈ 0.5 here); 0.4 reproduces the 3×3×3 block's rebound (restitution 0.35);
-    - the engine's "slow" drag, ζ = 0.001.
+    """The paper's engine (evosoro's Voxelyze) as closely as MuJoCo allows: the voxel
+    pipeline with its defaults, `Physics()`, each law the engine's own (docs/fidelity.md):
+    - floor: a penalty spring 2·E·L and damper 0.8·2 sqrt(m E L) on each voxel's centre
+      below its current half size, static friction 1.0 from rest, kinetic friction 0.5
+      until the step's friction impulse would stop the voxel;
+    - bonds: the engine's beam element, one per bond: shear-rigid ("euler_bernoulli",
+      transverse stiffness E·L = 12EI/L³), a linear axial spring E·L, torsion G·J/L; its
+      damping, ζ 0.5 on the force rows and half of it on the moments (the engine's
+      BondDampingZ 1, which it halves);
+    - self-collision: surface voxels more than 3 bonds apart repel as spheres of diameter
+      1.5 L with an undamped spring E·L;
+    - the engine's "slow" drag ζ = 0.001 on each voxel with its own modulus, and ten times
+      it on each voxel's rotation.
     """
     materials = {m: replace(p, friction=1.0, kinetic_friction=0.5)
                  for m, p in paper_materials().items()}
-    return Physics(materials=materials, scene=Scene(bond_damping_ratio=0.4, drag_ratio=0.001),
+    return Physics(materials=materials, scene=Scene(bond_damping_ratio=0.5, drag_ratio=0.001),
                    pipeline=VoxelPipeline())
 
 

@@ -294,14 +294,15 @@ static inline __attribute__((always_inline)) void beam_bond(
   double dD0 = M0 * ww0 + M3 * ww1 + M6 * ww2;
   double dD1 = M1 * ww0 + M4 * ww1 + M7 * ww2;
   double dD2 = M2 * ww0 + M5 * ww1 + M8 * ww2;
-  double axis = C(MJR_AXIS), beta = C(MJR_BETA);
+  double axis = C(MJR_AXIS), beta = C(MJR_BETA), bend = C(MJR_BETA_BEND);
+  double twist = C(MJR_BETA_TWIST);
   double act = C(MJR_MUSCLE_P) * ep + C(MJR_MUSCLE_M) * em;
   double rest = n < ndriven ? L + act : L;
   int x = axis == 0.0, y = axis == 1.0, z = axis == 2.0;
   double ks = C(MJR_K_SHEAR), kb = C(MJR_K_BEND), kt = C(MJR_K_TWIST);
-  double B0 = (x ? kt : kb) * (gain * rv0 + beta * dD0);
-  double B1 = (y ? kt : kb) * (gain * rv1 + beta * dD1);
-  double B2 = (z ? kt : kb) * (gain * rv2 + beta * dD2);
+  double B0 = x ? kt * (gain * rv0 + twist * dD0) : kb * (gain * rv0 + bend * dD0);
+  double B1 = y ? kt * (gain * rv1 + twist * dD1) : kb * (gain * rv1 + bend * dD1);
+  double B2 = z ? kt * (gain * rv2 + twist * dD2) : kb * (gain * rv2 + bend * dD2);
   /* axial: the tendons' own law along the axis, l = d[axis]; damping linear */
   double l = x ? d0 : (y ? d1 : d2), dl = x ? dd0 : (y ? dd1 : dd2);
   double lat2 = C(MJR_LAW_LAT2);
@@ -312,10 +313,14 @@ static inline __attribute__((always_inline)) void beam_bond(
   double F0 = x ? axial : -ks * (d0 + beta * dd0);
   double F1 = y ? axial : -ks * (d1 + beta * dd1);
   double F2 = z ? axial : -ks * (d2 + beta * dd2);
-  /* T_i = -(d x F)/2 + B, T_j = -(d x F)/2 - B */
-  double c0 = -0.5 * (d1 * F2 - d2 * F1);
-  double c1 = -0.5 * (d2 * F0 - d0 * F2);
-  double c2 = -0.5 * (d0 * F1 - d1 * F0);
+  /* the transverse force of the moments, damped as the bending */
+  double G0 = x ? axial : -ks * (d0 + bend * dd0);
+  double G1 = y ? axial : -ks * (d1 + bend * dd1);
+  double G2 = z ? axial : -ks * (d2 + bend * dd2);
+  /* T_i = -(d x G)/2 + B, T_j = -(d x G)/2 - B */
+  double c0 = -0.5 * (d1 * G2 - d2 * G1);
+  double c1 = -0.5 * (d2 * G0 - d0 * G2);
+  double c2 = -0.5 * (d0 * G1 - d1 * G0);
   double Ti0 = c0 + B0, Ti1 = c1 + B1, Ti2 = c2 + B2;
   double Tj0 = c0 - B0, Tj1 = c1 - B1, Tj2 = c2 - B2;
   /* back to world: M x */
@@ -334,21 +339,23 @@ static inline __attribute__((always_inline)) void beam_bond(
 #undef VJ
 }
 
-/* Beam bonds: one co-rotated beam element per face bond, with the linear stiffness of the
-   bond's calibrated tendons (axial k_a, transverse k_s, bending k_b, torsion k_t) and
-   stiffness-proportional damping C = beta K. It works in the bond's mid frame
-   M = R_i exp(Delta/2) (symmetric in i and j), with Delta the rotation vector of q_i^-1 q_j;
-   there the nodes' rotations are -Delta/2 and +Delta/2, so the symmetric (shear) rotation
-   vanishes. With e the bond's rest axis and d = M^T (p_j - p_i):
+/* Beam bonds: one co-rotated beam element per face bond, with axial k_a, transverse k_s,
+   bending k_b and torsion k_t stiffness and dampers beta (force rows), beta_b (bending and
+   the transverse force's moment), beta_t (torsion) per stiffness. It works in the bond's mid
+   frame M = R_i exp(Delta/2) (symmetric in i and j), with Delta the rotation vector of
+   q_i^-1 q_j; there the nodes' rotations are -Delta/2 and +Delta/2, so the symmetric (shear)
+   rotation vanishes. With e the bond's rest axis and d = M^T (p_j - p_i):
      transverse (Hookean, like the paper engine's beam):  F_j,perp = -k_s d_perp
-     axial (the tendons' own law, stiffening in tension): F_j.e = -k0 (l - l0)
-        - kd (s - s0) l / s,  l = d.e, s = sqrt(l^2 + D^2), s0 = sqrt(l0^2 + D^2)
+     axial: F_j.e = -k0 (l - l0) - kd (s - s0) l / s,  l = d.e, s = sqrt(l^2 + D^2),
+        s0 = sqrt(l0^2 + D^2) (kd = 0: the engine's linear spring)
      B = k_b Delta_perp + k_t (Delta.e) e
-     F_i = -F_j,  T_i = -(d x F_j)/2 + B,  T_j = -(d x F_j)/2 - B,
-   each displacement plus beta times its rate (rates in the frame turning with the mean
-   angular velocity; the axial damping linear, beta k_a). Linearised this is the
-   Euler-Bernoulli (k_s = E L) or Timoshenko (k_s = G L) beam of the tendons; momentum and
-   angular momentum are conserved exactly (T_i + T_j + d x F_j = 0).
+     F_i = -F_j,  T_i = -(d x G)/2 + B,  T_j = -(d x G)/2 - B,
+   G the transverse force F_j,perp damped with beta_b instead of beta; each displacement plus
+   its damper times its rate (rates in the frame turning with the mean angular velocity; the
+   axial damping linear, beta k_a). Linearised this is the Euler-Bernoulli (k_s = E L) or
+   Timoshenko (k_s = G L) beam; with beta_b = beta momentum and angular momentum are
+   conserved exactly (T_i + T_j + d x F_j = 0); the paper engine damps its moments with
+   half its forces' ratio (beta_b = beta / 2), which does not conserve them.
    Two passes: the arithmetic of all bonds as one vectorised loop (beam_bond), then the
    forces added to the voxels in bond order. */
 static void beam_bonds(mjrVoxels* v, double ep, double em) {
@@ -397,32 +404,32 @@ static void beam_bonds(mjrVoxels* v, double ep, double em) {
 }
 
 /* Drag on every voxel (the paper engine's "slow" damping): -drag_lin v on the centre and
-   -drag_rot w (MuJoCo's Stokes drag of a cube). A welded voxel's velocities are 0. */
+   -drag_rot w on the rotation, each voxel its own coefficients. A welded voxel's velocities
+   are 0. */
 static void voxel_drag(mjrVoxels* v) {
   const size_t N = (size_t)v->nvox;
   double* restrict s = v->scratch;
-  const double lin = v->drag_lin, rot = v->drag_rot;
+  const double* restrict lin = v->drag_lin;
+  const double* restrict rot = v->drag_rot;
   for (int a = 0; a < 3; a++) {
 #pragma GCC ivdep /* rows never overlap */
     for (size_t n = 0; n < N; n++) {
-      s[(MJR_FORCE + a) * N + n] -= lin * s[(MJR_VEL + a) * N + n];
-      s[(MJR_TORQUE + a) * N + n] -= rot * s[(MJR_W + a) * N + n];
+      s[(MJR_FORCE + a) * N + n] -= lin[n] * s[(MJR_VEL + a) * N + n];
+      s[(MJR_TORQUE + a) * N + n] -= rot[n] * s[(MJR_W + a) * N + n];
     }
   }
 }
 
-static inline int grid_neighbours(const int* gi, const int* gj) {
-  for (int a = 0; a < 3; a++) {
-    int d = gi[a] - gj[a];
-    if (d > 1 || d < -1) return 0;
-  }
-  return 1;
+static inline int never_collide(const mjrVoxels* v, size_t i, size_t j) {
+  size_t k = i * (size_t)v->nvox + j;
+  return (v->coll_near[k >> 3] >> (k & 7)) & 1;
 }
 
-/* Self-collision as the paper engine: colliding voxels that are not grid neighbours repel as
-   spheres of radius coll_radius times their current linear scale (muscle strain), with a
-   penalty spring and damper along the centre line, each the harmonic mean of the two
-   voxels' floor constants; repulsion only, no friction, no moment. Candidates come from a
+/* Self-collision as the paper engine: colliding (surface) voxels that are not near each other
+   (`never_colliding`) repel as spheres of radius coll_radius times their current linear
+   scale (muscle strain), with a penalty spring and damper along the centre line, each the
+   harmonic mean of the two voxels' collision constants; repulsion only, no friction, no
+   moment. Candidates come from a
    Verlet list rebuilt whenever a voxel has moved more than half the skin since the last
    build, so no touching pair is ever missed (a cache: the forces do not depend on it). */
 static void self_collision(mjrVoxels* v, double ep, double em) {
@@ -445,7 +452,7 @@ static void self_collision(mjrVoxels* v, double ep, double em) {
       double pi[3], pj[3];
       get3(v, MJR_P, i, pi);
       for (int j = i + 1; j < n; j++) {
-        if (!v->collides[j] || grid_neighbours(v->grid + 3 * i, v->grid + 3 * j)) continue;
+        if (!v->collides[j] || never_collide(v, (size_t)i, (size_t)j)) continue;
         get3(v, MJR_P, j, pj);
         double dx = pj[0] - pi[0], dy = pj[1] - pi[1], dz = pj[2] - pi[2];
         if (dx * dx + dy * dy + dz * dz < cut2) {
@@ -477,8 +484,9 @@ static void self_collision(mjrVoxels* v, double ep, double em) {
     get3(v, MJR_VEL, i, vi);
     get3(v, MJR_VEL, j, vj);
     for (int a = 0; a < 3; a++) closing += u[a] * (vj[a] - vi[a]);
-    double k_pair = 2.0 / (1.0 / v->fk[i] + 1.0 / v->fk[j]);
-    double c_pair = 2.0 / (1.0 / v->fc[i] + 1.0 / v->fc[j]);
+    double k_pair = 2.0 / (1.0 / v->ck[i] + 1.0 / v->ck[j]);
+    double c_pair = v->cc[i] > 0.0 && v->cc[j] > 0.0
+                        ? 2.0 / (1.0 / v->cc[i] + 1.0 / v->cc[j]) : 0.0;
     double f = k_pair * (contact - dist) - c_pair * closing;
     if (f <= 0.0) continue;
     double push[3] = {f * u[0], f * u[1], f * u[2]};
@@ -491,16 +499,19 @@ static void self_collision(mjrVoxels* v, double ep, double em) {
    outside impulse (someone wrote qvel), which releases it */
 #define KICKED 1e-9
 
-/* The paper engine's floor (Voxelyze CVX_Voxel::floorForce and the friction part of
-   timeStep). Per voxel touching the floor (centre below its current half size, which
-   shrinks with the voxel's own muscle strain): normal force k pen - c vz on the centre (no
-   moment; the damper may pull); friction from the spring part N = k pen: a sticking voxel
-   stays put (its horizontal velocity is cancelled within the step) until the other
-   horizontal forces exceed mu_s N; a sliding one feels mu_k N against its horizontal
-   velocity and sticks when that would stop it within the step (the engine's work-energy
-   test). The other horizontal forces: bonds, drag and self-collision (in scratch),
-   MuJoCo's own passive forces, qfrc_applied, xfrc_applied and gravity (a voxel's centre of
-   mass is at its joint, so no other bias force acts on its translation). */
+/* The paper engine's floor (evosoro's Voxelyze, CVXS_Voxel::CalcFloorEffect). Per voxel
+   touching the floor (centre below its current half size, which shrinks with the voxel's
+   own muscle strain): normal force k pen - c vz on the centre (no moment; the damper may
+   pull); friction from the spring part N = k pen. A voxel at rest (stuck at the last step,
+   or, with the momentum rule, with no horizontal velocity at all) stays put (its horizontal
+   velocity is cancelled within the step) until the other horizontal forces exceed mu_s N,
+   and then moves without friction for that step; a sliding one feels mu_k N against its
+   horizontal velocity, and sticks when the step would stop it: friction_momentum, the
+   engine's test, when the friction impulse mu_k N dt reaches its momentum m |v|; else when
+   the step's friction work would exceed its kinetic energy. The other horizontal forces:
+   bonds, drag and self-collision (in scratch), MuJoCo's own passive forces, qfrc_applied,
+   xfrc_applied and gravity (a voxel's centre of mass is at its joint, so no other bias
+   force acts on its translation). */
 static void engine_floor(const mjModel* m, const mjData* d, mjrVoxels* v, const double* stick,
                          double ep, double em) {
   int planar = v->dim == 3;
@@ -529,7 +540,9 @@ static void engine_floor(const mjModel* m, const mjData* d, mjrVoxels* v, const 
                                   + xfrc[1] + mass * gravity[1] : 0.0};
     double vh[2] = {vel[0], planar ? vel[N] : 0.0};
     double stop[2] = {-other[0] - mass * vh[0] / dt, -other[1] - mass * vh[1] / dt};
-    int sticking = stick[n] != 0.0 && vh[0] * vh[0] + vh[1] * vh[1] <= KICKED * KICKED;
+    double speed2 = vh[0] * vh[0] + vh[1] * vh[1];
+    int sticking = (stick[n] != 0.0 && speed2 <= KICKED * KICKED)
+                   || (v->friction_momentum && speed2 == 0.0);
     if (sticking) {
       double limit = v->mu_s[n] * normal;
       if (other[0] * other[0] + other[1] * other[1] > limit * limit) {
@@ -541,18 +554,22 @@ static void engine_floor(const mjModel* m, const mjData* d, mjrVoxels* v, const 
       }
       continue;
     }
-    double speed = sqrt(vh[0] * vh[0] + vh[1] * vh[1]);
+    double speed = sqrt(speed2);
     double fric[2] = {0.0, 0.0};
     if (speed > 0.0) {
       fric[0] = -v->mu_k[n] * normal * vh[0] / speed;
       fric[1] = -v->mu_k[n] * normal * vh[1] / speed;
     }
-    /* momentum after this step, the step's displacement, and the engine's stop test */
-    double p0 = mass * vh[0] + dt * (other[0] + fric[0]);
-    double p1 = mass * vh[1] + dt * (other[1] + fric[1]);
-    double work = (fric[0] * p0 + fric[1] * p1) * dt / mass;
-    double kinetic = 0.5 * (p0 * p0 + p1 * p1) / mass;
-    if (kinetic + work <= 0.0) {
+    int stops;
+    if (v->friction_momentum) { /* the step's friction impulse would take all its momentum */
+      stops = v->mu_k[n] * normal * dt >= mass * speed;
+    } else { /* momentum after this step; its friction work would take all the energy */
+      double p0 = mass * vh[0] + dt * (other[0] + fric[0]);
+      double p1 = mass * vh[1] + dt * (other[1] + fric[1]);
+      double work = (fric[0] * p0 + fric[1] * p1) * dt / mass;
+      stops = 0.5 * (p0 * p0 + p1 * p1) / mass + work <= 0.0;
+    }
+    if (stops) {
       *next = 1.0;
       F[0] += stop[0];
       F[N] += stop[1];
@@ -584,7 +601,7 @@ void mjr_voxel_forces(const mjModel* m, mjData* d, mjrVoxels* v, const mjtNum* s
     tendon_bonds(v, ep, em);
   }
   if (!network) {
-    if (v->drag_lin > 0.0 || v->drag_rot > 0.0) voxel_drag(v);
+    if (v->drag) voxel_drag(v);
     if (v->collide) self_collision(v, ep, em);
     if (v->floor) engine_floor(m, d, v, stick, ep, em);
   }

@@ -103,12 +103,76 @@ static void release(mjrVoxels* v) {
   void* arrays[] = {v->qadr, v->vadr, v->body, v->pos0, v->half_p, v->half_m, v->bonds,
                     v->axis, v->muscle, v->stiffness, v->law, v->beta, v->tendon_bond,
                     v->sites, v->tk, v->tc, v->trest, v->tlat2, v->fk, v->fc, v->mu_s,
-                    v->mu_k, v->grid, v->collides, v->state, v->scratch, v->stick_next, v->coll_ref,
+                    v->mu_k, v->ck, v->cc, v->grid, v->collides, v->coll_near, v->drag_lin,
+                    v->drag_rot, v->state, v->scratch, v->stick_next, v->coll_ref,
                     v->coll_pairs};
   for (size_t i = 0; i < sizeof(arrays) / sizeof(arrays[0]); i++) free(arrays[i]);
   free(v->beam.constants);
   free(v->beam.outputs);
   free(v);
+}
+
+static inline void set_bit(unsigned char* bits, size_t k) { bits[k >> 3] |= 1u << (k & 7); }
+
+/* The pairs that never collide, as nvox * nvox bits (row i, column j): with coll_hops > 0
+   the voxels within that many bond hops of each other (the paper engine's "nearby" voxels,
+   a breadth-first search over the bonds), with 0 the face, edge and corner grid neighbours. */
+static unsigned char* never_colliding(const mjrVoxels* v) {
+  size_t n = (size_t)v->nvox;
+  unsigned char* near = (unsigned char*)calloc((n * n + 7) / 8, 1);
+  if (v->coll_hops == 0) {
+    for (size_t i = 0; i < n; i++) {
+      for (size_t j = 0; j < n; j++) {
+        int close = 1;
+        for (int a = 0; a < 3; a++) {
+          int d = v->grid[3 * i + a] - v->grid[3 * j + a];
+          if (d > 1 || d < -1) close = 0;
+        }
+        if (close) set_bit(near, i * n + j);
+      }
+    }
+    return near;
+  }
+  /* the bond graph as adjacency lists (CSR) */
+  size_t nb = (size_t)v->nbond;
+  int* start = (int*)calloc(n + 1, sizeof(int));
+  int* other = (int*)malloc((2 * nb + 1) * sizeof(int));
+  for (size_t b = 0; b < 2 * nb; b++) start[v->bonds[b] + 1]++;
+  for (size_t i = 0; i < n; i++) start[i + 1] += start[i];
+  int* fill = (int*)malloc((n + 1) * sizeof(int));
+  memcpy(fill, start, (n + 1) * sizeof(int));
+  for (size_t b = 0; b < nb; b++) {
+    int i = v->bonds[2 * b], j = v->bonds[2 * b + 1];
+    other[fill[i]++] = j;
+    other[fill[j]++] = i;
+  }
+  int* depth = (int*)malloc(n * sizeof(int));
+  int* queue = (int*)malloc(n * sizeof(int));
+  for (size_t s = 0; s < n; s++) {
+    if (!v->collides[s]) continue;
+    for (size_t i = 0; i < n; i++) depth[i] = -1;
+    size_t head = 0, tail = 0;
+    depth[s] = 0;
+    queue[tail++] = (int)s;
+    while (head < tail) {
+      int i = queue[head++];
+      set_bit(near, s * n + (size_t)i);
+      if (depth[i] == v->coll_hops) continue;
+      for (int k = start[i]; k < start[i + 1]; k++) {
+        int j = other[k];
+        if (depth[j] < 0) {
+          depth[j] = depth[i] + 1;
+          queue[tail++] = j;
+        }
+      }
+    }
+  }
+  free(start);
+  free(other);
+  free(fill);
+  free(depth);
+  free(queue);
+  return near;
 }
 
 /* The beam bonds' arrays (mjrBeams) from the parsed per-bond rows. */
@@ -125,7 +189,9 @@ static void arrange_beams(mjrVoxels* v) {
     c[MJR_K_SHEAR * stride + n] = v->stiffness[4 * n + 1];
     c[MJR_K_BEND * stride + n] = v->stiffness[4 * n + 2];
     c[MJR_K_TWIST * stride + n] = v->stiffness[4 * n + 3];
-    c[MJR_BETA * stride + n] = v->beta[n];
+    c[MJR_BETA * stride + n] = v->beta[3 * n];
+    c[MJR_BETA_BEND * stride + n] = v->beta[3 * n + 1];
+    c[MJR_BETA_TWIST * stride + n] = v->beta[3 * n + 2];
     c[MJR_LAW_K0 * stride + n] = v->law[3 * n];
     c[MJR_LAW_KD * stride + n] = v->law[3 * n + 1];
     c[MJR_LAW_LAT2 * stride + n] = v->law[3 * n + 2];
@@ -292,7 +358,7 @@ static mjrVoxels* configure(const mjModel* m, int instance, char* error, int err
   if (v->beams) {
     DOUBLES(stiffness, "bond_stiffness", 4 * nb)
     DOUBLES(law, "bond_axial_law", 3 * nb)
-    DOUBLES(beta, "bond_beta", nb)
+    DOUBLES(beta, "bond_beta", 3 * nb)
   } else {
     INTS(tendon_bond, "tendon_bond", nt, 0, nb - 1)
     DOUBLES(sites, "tendon_sites", 6 * nt)
@@ -313,12 +379,29 @@ static mjrVoxels* configure(const mjModel* m, int instance, char* error, int err
   DOUBLES(fc, "floor_damping", n)
   DOUBLES(mu_s, "static_friction", n)
   DOUBLES(mu_k, "kinetic_friction", n)
+  if (ok) {
+    const char* stop = config(m, instance, "friction_stop");
+    if (!strcmp(stop, "momentum")) {
+      v->friction_momentum = 1;
+    } else if (strcmp(stop, "energy")) {
+      snprintf(error, error_sz, "mjregen.voxels: friction_stop must be 'momentum' or "
+               "'energy', got '%s'", stop);
+      ok = 0;
+    }
+  }
   if (ok) v->coll_radius = parse_scalar(m, instance, "collision_radius", &ok, error, error_sz);
   if (ok) v->coll_skin = parse_scalar(m, instance, "collision_skin", &ok, error, error_sz);
+  DOUBLES(ck, "collision_stiffness", n)
+  DOUBLES(cc, "collision_damping", n)
+  if (ok) {
+    int* hops = parse_ints(m, instance, "collision_hops", 1, 0, 1000, error, error_sz);
+    if (hops) v->coll_hops = *hops; else ok = 0;
+    free(hops);
+  }
   INTS(grid, "grid", 3 * n, -1000000, 1000000)
   INTS(collides, "collides", n, 0, 1)
-  if (ok) v->drag_lin = parse_scalar(m, instance, "drag_linear", &ok, error, error_sz);
-  if (ok) v->drag_rot = parse_scalar(m, instance, "drag_rotational", &ok, error, error_sz);
+  DOUBLES(drag_lin, "drag_linear", n)
+  DOUBLES(drag_rot, "drag_rotational", n)
 #undef DOUBLES
 #undef INTS
   if (!ok) {
@@ -333,7 +416,9 @@ static mjrVoxels* configure(const mjModel* m, int instance, char* error, int err
     if (v->half_m[i] > largest) largest = v->half_m[i];
   }
   if (v->beams) arrange_beams(v);
+  for (int i = 0; i < n; i++) v->drag |= v->drag_lin[i] > 0.0 || v->drag_rot[i] > 0.0;
   v->collide = v->coll_radius > 0 && colliders > 1;
+  if (v->collide) v->coll_near = never_colliding(v);
   v->coll_reach = 2.0 * v->coll_radius * (1.0 + 2.0 * largest / v->voxel_size);
   v->state = (double*)calloc((size_t)MJR_STATE * n, sizeof(double));
   v->scratch = (double*)calloc((size_t)MJR_SCRATCH * n, sizeof(double));

@@ -30,7 +30,7 @@
   X(bond_muscle)      /* (nb, 2) w+ w-: rest length L (1 + w+ e+ + w- e-) */         \
   X(bond_stiffness)   /* beam: (nb, 4) axial N/m, transverse N/m, bending, torsion N m */ \
   X(bond_axial_law)   /* beam: (nb, 3) k straight N/m, k diagonal N/m, extent^2 m^2 */ \
-  X(bond_beta)        /* beam: (nb) s, damping per stiffness */                      \
+  X(bond_beta)        /* beam: (nb, 3) s, damping per stiffness: forces, bending, torsion */ \
   X(tendon_bond)      /* tendons: (nt) bond of each tendon (bonds' tendons consecutive) */ \
   X(tendon_sites)     /* tendons: (nt, 6) m, site offsets in voxel i's and j's frames */ \
   X(tendon_stiffness) /* tendons: (nt) N/m */                                        \
@@ -42,12 +42,17 @@
   X(floor_damping)    /* (n) N s/m */                                                \
   X(static_friction)  /* (n) */                                                      \
   X(kinetic_friction) /* (n) */                                                      \
+  X(friction_stop)    /* momentum | energy: when a sliding voxel sticks */           \
   X(collision_radius) /* m at the voxel's nominal size; 0: no self-collision */      \
   X(collision_skin)   /* m, Verlet-list skin */                                      \
-  X(grid)             /* (n, 3) grid indices: neighbours in the grid never collide */ \
+  X(collision_stiffness) /* (n) N/m; a pair: the harmonic mean */                    \
+  X(collision_damping)   /* (n) N s/m; a pair: the harmonic mean */                  \
+  X(collision_hops)   /* voxels within this many bond hops never collide; 0: grid   \
+                         neighbours (face, edge, corner) never collide */            \
+  X(grid)             /* (n, 3) grid indices */                                      \
   X(collides)         /* (n) 1: the voxel self-collides (it misses a face neighbour) */ \
-  X(drag_linear)      /* N s/m on every voxel centre */                              \
-  X(drag_rotational)  /* N m s */
+  X(drag_linear)      /* (n) N s/m on every voxel centre */                          \
+  X(drag_rotational)  /* (n) N m s on every voxel's rotation */
 
 #define MJR_COUNT_ATTRIBUTE(name) +1
 enum { MJR_NATTRIBUTE = 0 MJR_ATTRIBUTES(MJR_COUNT_ATTRIBUTE) };
@@ -68,7 +73,8 @@ enum { MJR_QPOS = 0, MJR_QVEL = 7, MJR_STATE = 13 };
 enum { /* constants */
   MJR_AXIS,                                    /* 0, 1, 2 (doubles: the data's width) */
   MJR_K_AXIAL, MJR_K_SHEAR, MJR_K_BEND, MJR_K_TWIST, /* N/m, N/m, N m, N m */
-  MJR_BETA,                                    /* s */
+  MJR_BETA, MJR_BETA_BEND, MJR_BETA_TWIST,     /* s: damping per stiffness of the force
+                                                  rows, the bending and the torsion */
   MJR_LAW_K0, MJR_LAW_KD, MJR_LAW_LAT2,        /* axial law: N/m, N/m, m^2 */
   MJR_MUSCLE_P, MJR_MUSCLE_M,                  /* m: rest L + muscle_p e+ + muscle_m e- */
   MJR_BEAM_CONSTANTS
@@ -101,7 +107,7 @@ typedef struct {
   double* muscle;         /* (nbond, 2) L w+, L w- */
   double* stiffness;      /* (nbond, 4) */
   double* law;            /* (nbond, 3) */
-  double* beta;           /* (nbond) */
+  double* beta;           /* (nbond, 3) */
   mjrBeams beam;          /* beams: the bonds as arrays (from the three above) */
   int* tendon_bond;       /* (ntendon) */
   double* sites;          /* (ntendon, 6) */
@@ -109,14 +115,23 @@ typedef struct {
   double* tc;             /* (ntendon) */
   double* trest;          /* (ntendon) */
   double* tlat2;          /* (ntendon) */
-  double* fk;             /* (nvox) floor stiffness */
-  double* fc;             /* (nvox) floor damping */
+  double* fk;             /* (nvox) N/m floor stiffness */
+  double* fc;             /* (nvox) N s/m floor damping */
   double* mu_s;           /* (nvox) */
   double* mu_k;           /* (nvox) */
+  int friction_momentum;  /* sliding stops when mu_k N dt >= m |v| (the paper engine);
+                             0: when the step's friction work exceeds the kinetic energy */
   double coll_radius, coll_skin, coll_reach;
+  double* ck;             /* (nvox) N/m collision stiffness (a pair: harmonic mean) */
+  double* cc;             /* (nvox) N s/m collision damping (a pair: harmonic mean) */
+  int coll_hops;          /* pairs within this many bond hops never collide; 0: face,
+                             edge and corner grid neighbours never collide */
   int* grid;              /* (nvox, 3) */
   int* collides;          /* (nvox) */
-  double drag_lin, drag_rot;
+  unsigned char* coll_near; /* (nvox * nvox bits) pairs that never collide */
+  double* drag_lin;       /* (nvox) N s/m */
+  double* drag_rot;       /* (nvox) N m s */
+  int drag;               /* any drag */
   double* state;          /* (MJR_STATE, nvox): the joints' state as rows */
   double* scratch;        /* (MJR_SCRATCH, nvox) */
   double* stick_next;     /* (nvox) stick flags after this step (copied to plugin_state
