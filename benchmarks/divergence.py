@@ -62,6 +62,13 @@ def mjregen_voxels(name: str, times: np.ndarray, physics: Physics) -> dict[str, 
     return {"index": np.asarray(compiled.voxel_index), "positions": positions}
 
 
+def matching_order(engine_index: np.ndarray, our_index: np.ndarray) -> np.ndarray:
+    """(n,) the index in mjregen's voxels of each engine voxel: grid indices up to each
+    side's own origin."""
+    key = {tuple(i): k for k, i in enumerate(our_index - our_index.min(axis=0))}
+    return np.array([key[tuple(i)] for i in engine_index - engine_index.min(axis=0)])
+
+
 def yaw(cloud: np.ndarray) -> np.ndarray:
     """(T,) degrees: the rotation about z that best maps the centred x-y cloud at time 0
     onto the one at each time (2D Kabsch)."""
@@ -89,9 +96,7 @@ def main() -> None:
     physics = Physics().replace(**overrides)
     engine = engine_voxels(args.reference, args.robot)
     ours = mjregen_voxels(args.robot, engine["t"], physics)
-    # the same voxel on both sides: grid indices up to each side's own origin
-    key = {tuple(i): k for k, i in enumerate(ours["index"] - ours["index"].min(axis=0))}
-    order = np.array([key[tuple(i)] for i in engine["index"] - engine["index"].min(axis=0)])
+    order = matching_order(engine["index"], ours["index"])
     length = physics.scene.voxel_size
     count = len(ours["positions"])
     theirs, mine = engine["positions"][:count], ours["positions"][:, order]
