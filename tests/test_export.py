@@ -55,7 +55,8 @@ def plain_mujoco(xml_path, settle: float, measured: float) -> dict:
 
 @pytest.mark.parametrize("name", ["tripod", "biped", "multiped"])
 def test_paper_robot_walks_the_same_distance_in_plain_mujoco(name, tmp_path):
-    """The must-show of the plugin design: the same distance to 1e-6 voxel lengths."""
+    """The must-show of the plugin design: the same distance and displacement (so the same
+    heading) to 1e-6 voxel lengths."""
     robot = Robot.load(f"{PAPER}/{name}.npy")
     walked = simulate(robot)
     assert walked.stable
@@ -64,8 +65,9 @@ def test_paper_robot_walks_the_same_distance_in_plain_mujoco(name, tmp_path):
     settle, measured = Physics().scene.timing(3)
     plain = plain_mujoco(xml, settle, measured)
     assert plain["modules"] == []  # mjregen was not imported
-    distance = np.linalg.norm(np.subtract(plain["end"], plain["start"])[:2]) / 1e-3
-    assert distance == pytest.approx(walked.distance, abs=1e-6)
+    move = np.subtract(plain["end"], plain["start"])[:2] / 1e-3
+    assert np.linalg.norm(move) == pytest.approx(walked.distance, abs=1e-6)
+    assert move == pytest.approx(np.asarray(walked.displacement), abs=1e-6)
     assert walked.distance > 20.0  # and it walked
 
 
