@@ -334,22 +334,26 @@ def performance_doc(report: dict, extra: dict, evolution: dict | None) -> str:
         "stepper's integration are loops the compiler vectorises (AVX2 on this machine); the "
         "bonds read their voxels by gather and add their forces back in bond order. Every "
         "operation is the one the scalar code did, in the same order, so the motion is the "
-        "same to the last bit (the paper robots' distances are unchanged: "
+        "scalar code's to the last bit (the paper robots' distances: "
         + ", ".join(f"{DOC_ROBOTS[n]} {report[n]['default']['distance']:.4f}" for n in paper)
         + ").",
         f"- **Why the same bits matter.** Moving every voxel of the tripod by "
         f"{chaos_run['size_m']:g} m at random before the settle changes its 0.5 s distance from "
-        f"{chaos_run['unperturbed']:.2f} to {min(spread):.2f}–{max(spread):.2f} voxel lengths "
-        f"({len(spread)} runs): its walk is chaotic at the rounding level, so any change of "
-        "arithmetic (single precision, fused multiply-add, a reordered sum, another step) "
-        "moves its distance by this much.",
+        f"{chaos_run['unperturbed']:.4f} to {min(spread):.4f}–{max(spread):.4f} voxel lengths "
+        f"({len(spread)} runs). " + (
+            "Its walk is chaotic at the rounding level, so any change of arithmetic (single "
+            "precision, fused multiply-add, a reordered sum, another step) moves its distance "
+            "by this much." if max(spread) - min(spread) > 1e-3 * abs(chaos_run["unperturbed"])
+            else "At this size the walk does not part, but larger differences grow "
+            "(docs/accuracy.md: how much of a fitness is physics), so a change of arithmetic "
+            "(single precision, fused multiply-add, a reordered sum) is a change of results."),
         "- **The step.** Each robot's step is 0.75 of Euler's stability limit of its own bond "
-        f"network. With the bonds' damping (ζ = {Physics().scene.bond_damping_ratio:g} per "
-        "bond) applied as stiffness-proportional damping C = βK, a mode's damping ratio grows "
-        "with its frequency: the "
-        "fastest mode is overdamped (ζ below), and its damping, not its stiffness, sets the "
-        "limit. The engine steps 0.9 / (2π √(k/m)) of its stiffest material whatever the network "
-        "and stays stable there with its own damping scheme.",
+        f"network, with the paper engine's damping (ζ = {Physics().scene.bond_damping_ratio:g} "
+        "on a bond's force rows, half of it on its moments): a mode's damping grows with its "
+        "frequency, the fastest mode is overdamped (ζ below), and its damping, not its "
+        "stiffness, sets the limit. The engine steps 0.9 / (2π √(k/m)) of its stiffest "
+        "material whatever the network, and stays stable there because its dampers take the "
+        "last step's rates.",
         "",
         "| robot | fastest mode ζ | undamped / damped limit | steps engine / mjregen |",
         "|---|---|---|---|",
@@ -363,11 +367,11 @@ def performance_doc(report: dict, extra: dict, evolution: dict | None) -> str:
     lines += [
         "",
         "On the paper's robots the two rules land near each other; on robots without hard "
-        "voxels the engine's rule takes the soft material's period, ~1.6× fewer steps than the "
+        "voxels the engine's rule takes the soft material's period, fewer steps than the "
         "damped limit allows here, as it does on dense blocks with hard voxels (the networks' "
-        "stiffest topology). A longer step needs the damping treated differently (damping each "
-        "bond term by its own √(k·m) instead of βk lengthens it by only 6–10 %): a change of "
-        "physics or integrator, judged against the engine's recordings.",
+        "stiffest topology). A longer step needs the dampers integrated otherwise (implicitly, "
+        "or on the last step's rates as the engine does): a change of integrator, to be judged "
+        "against the engine's recordings.",
     ]
     if evolution is not None:
         lines += [
