@@ -352,8 +352,7 @@ def performance_doc(report: dict, extra: dict, evolution: dict | None) -> str:
         "on a bond's force rows, half of it on its moments): a mode's damping grows with its "
         "frequency, the fastest mode is overdamped (ζ below), and its damping, not its "
         "stiffness, sets the limit. The engine steps 0.9 / (2π √(k/m)) of its stiffest "
-        "material whatever the network, and stays stable there because its dampers take the "
-        "last step's rates.",
+        "material whatever the network (its dampers take the rates of the last step).",
         "",
         "| robot | fastest mode ζ | undamped / damped limit | steps engine / mjregen |",
         "|---|---|---|---|",

@@ -2,10 +2,10 @@
 
 Defaults follow the paper's code (Voxelyze settings): 1 mm voxels of 1 g, E = 1e7 Pa (soft
 and muscle) or 5e7 Pa (hard), Poisson ratio 0.35, gravity 27.468 m/s² downwards, 40 Hz
-actuation with ±14 % linear strain, contract-only; and the modelling choices that make the
-paper's robots walk here as in the paper engine (docs/fidelity.md): the engine's floor
-(static/kinetic friction 1.0/0.5), shear-rigid beam bonds, self-collision, bond damping
-ratio 0.4, drag 0.001. The default *is* `mjregen.physics.presets.paper_physics()`.
+actuation with ±14 % linear strain, contract-only; and the paper engine's own laws (evosoro's
+Voxelyze; docs/fidelity.md): its floor (static/kinetic friction 1.0/0.5), its shear-rigid
+beam element and dampers (bond damping ratio 0.5), its self-collision and its drag (ζ 0.001,
+ten times it on rotations). The default *is* `mjregen.physics.presets.paper_physics()`.
 
 A `Physics` is materials, a `Scene` (what every pipeline shares: the world, the actuation,
 the timing, the bonds' damping) and one pipeline with its own parameters:

@@ -303,7 +303,7 @@ static inline __attribute__((always_inline)) void beam_bond(
   double B0 = x ? kt * (gain * rv0 + twist * dD0) : kb * (gain * rv0 + bend * dD0);
   double B1 = y ? kt * (gain * rv1 + twist * dD1) : kb * (gain * rv1 + bend * dD1);
   double B2 = z ? kt * (gain * rv2 + twist * dD2) : kb * (gain * rv2 + bend * dD2);
-  /* axial: the tendons' own law along the axis, l = d[axis]; damping linear */
+  /* axial: the law along the axis (kd = 0: linear), l = d[axis]; damping linear */
   double l = x ? d0 : (y ? d1 : d2), dl = x ? dd0 : (y ? dd1 : dd2);
   double lat2 = C(MJR_LAW_LAT2);
   double s_now = sqrt(l * l + lat2), s_rest = sqrt(rest * rest + lat2);
