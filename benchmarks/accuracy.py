@@ -1,39 +1,48 @@
-"""Error against run time of the integrators, and numerical stability on stiff and extreme cases.
+"""Error against run time, chaos against discretisation, and the stability of the time step.
 
-Two studies, each written to ``docs/`` as CSV plus a Markdown table on stdout:
+``report`` runs the studies below (with the paper engine's line when ``--voxelyze DIR``
+names its folder) and writes ``docs/accuracy.md`` with its CSVs and figure; the studies
+also run alone, writing their CSV and printing a table:
 
-``accuracy``: for each robot (2D sheet, the paper's tripod with hard voxels, a 7×7×7 mixed
-  block, the paper's evolved multiped), each integrator variant and a sweep of time steps
-  (multiples of the paper engine's rule dt_p = 0.9 / (2π sqrt(k/m)), i.e. ``timestep_safety``
-  1), run the same evaluation as `mjregen.physics.simulate` — settle, then actuate — and
+``accuracy``: for each robot (a 2D sheet, a soft 5×5×5 block, a mixed 7×7×7 block, the
+  paper's tripod, biped and multiped), each integrator variant and a sweep of time steps
+  (multiples of each robot's stability limit, ``timestep_safety``), run the same evaluation
+  as `mjregen.physics.simulate` — settle 0.05 s, then 0.1 s of actuation (4 cycles) — and
   compare the final centre of mass (voxel lengths) and the fitness with a reference run:
-  Euler at 1/16 of the smallest step of the sweep. The window is shortened to settle 0.05 s + 0.1 s of
-  actuation (4 cycles), so that the references stay affordable; ``--full-window`` adds the
-  paper's 0.05 + 0.5 s for the tripod, to show how chaotic contact dynamics limit
-  convergence over long windows. Every step divides the settle time exactly, so all runs
-  start actuating at the same instant. Variants: ``euler``, ``rk4`` (MuJoCo's), the same
-  with the muscle rest lengths sampled at the step's midpoint (``-mid``) instead of its
-  start, and ``implicit``/``implicitfast`` (checked for convergence only).
-  Writes ``accuracy_table.csv``, ``accuracy_orders.csv`` and ``accuracy_work_precision.png``.
+  Euler at 1/16 of the smallest step of the sweep. ``--full-window`` adds the paper's
+  0.05 + 0.5 s for the tripod. Every step divides the settle time exactly, so all runs
+  start actuating at the same instant. Variants: ``euler`` (what `simulate` runs), ``rk4``
+  (MuJoCo's, on the pure-MuJoCo twin of the physics), the same with the muscle rest
+  lengths sampled at the step's midpoint (``-mid``) instead of its start, and
+  ``implicit``/``implicitfast`` (checked for convergence only). Writes
+  ``accuracy_table.csv``, ``accuracy_orders.csv`` and ``accuracy_work_precision.png``.
+
+``chaos``: for each paper robot over the paper's window, the spread of the distance over 20
+  runs from initial positions shifted by 1e-9 voxel lengths, over 8 time-step safeties, and
+  the default's difference from a run at an 8th of its step. Writes ``accuracy_chaos.csv``.
 
 ``stability``: for each case (stiffness ×1…×1000 of the hard material, muscle strain up to
   ±50 %, bond damping ratio 0.05…2, full 7×7×7 blocks of each material, a single voxel, a
   one-voxel tower, a clamped cantilever, a drop from 5 voxel lengths, all-muscle blocks in
-  phase, blocks kicked with random 1 mm/s velocities), whether the automatic time step (``Scene.timestep_safety`` default) is stable, and
-  the largest stable ``timestep_safety`` found by bracketing and geometric bisection; with
-  ``--rule zeta`` the candidate rule safety × min(1, 1/ζ) is checked as well.
-  Writes ``accuracy_stability.csv``.
+  phase, blocks kicked with random 1 mm/s velocities), whether the automatic time step
+  (``Scene.timestep_safety`` default) is stable, and the largest stable
+  ``timestep_safety`` found by bracketing and geometric bisection; with ``--rule zeta`` the
+  candidate rule safety × min(1, 1/ζ) is checked as well. Writes
+  ``accuracy_stability.csv``.
 
 A run is stable when `Simulation`'s guard passes (no NaN, no MuJoCo warning, no voxel faster
 than 5 m/s) and at the end no voxel moves faster than ``END_SPEED`` (a slowly growing
 instability that has not run away yet).
 
-    /work/venv/bin/python benchmarks/accuracy.py accuracy --jobs 2 [--full-window] [--quick]
-    /work/venv/bin/python benchmarks/accuracy.py stability --jobs 2 [--rule zeta] [--quick]
+    python benchmarks/accuracy.py report --jobs 2 [--voxelyze DIR]
+    python benchmarks/accuracy.py accuracy --jobs 2 [--full-window] [--quick]
+    python benchmarks/accuracy.py chaos --jobs 2
+    python benchmarks/accuracy.py stability --jobs 2 [--rule zeta] [--quick]
         [--timestep-rule network]
-    /work/venv/bin/python benchmarks/accuracy.py plot     # redraw the PNG from the CSV
+    python benchmarks/accuracy.py plot     # redraw the PNG from the CSV
 
-CPU time is the process CPU time of the stepping (compile excluded), one process per run.
+CPU time is the process CPU time of the stepping (compile excluded), one process per run;
+the paper engine's, its process's CPU time.
 """
 
 from __future__ import annotations
@@ -90,6 +99,8 @@ class Run:
     with an optional "-mid" suffix, or None for the pipeline's (the voxel pipeline: Euler);
     kick: m/s (rad/s), standard
     deviation of random initial velocities of every dof (seed 0), to excite every mode.
+    perturb: voxel lengths, standard deviation of random shifts of every voxel's initial
+    position (seed `seed`), to measure how far chaos carries a rounding-size difference.
     """
 
     robot: Robot
@@ -101,6 +112,8 @@ class Run:
     elevation: float = 0.0
     clamped: tuple = ()
     kick: float = 0.0
+    perturb: float = 0.0
+    seed: int = 0
 
 
 # the largest self-collision envelope of MuJoCo's spheres that no grid neighbour reaches
@@ -152,6 +165,8 @@ def evaluate(run: Run) -> dict:
               plugin_instance=compiled.plugin_instance)
     if run.kick:
         sim.data.qvel[:] = np.random.default_rng(0).normal(0.0, run.kick, model.nv)
+    if run.perturb:
+        shift_positions(model, sim.data, run.perturb * run.physics.scene.voxel_size, run.seed)
     n_settle, n_measure = round(run.settle / dt), round(run.measured / dt)
     cpu0 = time.process_time()
     reason = sim.run(n_settle)
@@ -170,6 +185,19 @@ def evaluate(run: Run) -> dict:
     return {"stable": not reason, "reason": reason, "dt": dt, "steps": sim.steps, "cpu": cpu,
             "com_start": start, "com_end": end, "distance": distance, "fitness": fitness,
             "max_speed": speed}
+
+
+def shift_positions(model: mujoco.MjModel, data: mujoco.MjData, sigma: float, seed: int
+                    ) -> None:
+    """Shift every joint's position coordinates (free joints' x, y, z; slides) by normal
+    random amounts of standard deviation `sigma` m."""
+    rng = np.random.default_rng(seed)
+    for j in range(model.njnt):
+        adr = model.jnt_qposadr[j]
+        if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_FREE:
+            data.qpos[adr:adr + 3] += rng.normal(0.0, sigma, 3)
+        elif model.jnt_type[j] == mujoco.mjtJoint.mjJNT_SLIDE:
+            data.qpos[adr] += rng.normal(0.0, sigma)
 
 
 def max_voxel_speed(model: mujoco.MjModel, data: mujoco.MjData) -> float:
@@ -223,8 +251,53 @@ def paper_robot(name: str) -> Robot:
 
 
 def accuracy_robots() -> dict[str, Robot]:
-    return {"sheet_2d": sheet_2d(), "tripod": paper_robot("tripod"),
-            "block_7x7x7": mixed_block(), "multiped": paper_robot("multiped")}
+    return {"sheet_2d": sheet_2d(), "soft_block_5x5x5": block(5, Material.SOFT),
+            "block_7x7x7": mixed_block(), "tripod": paper_robot("tripod"),
+            "biped": paper_robot("biped"), "multiped": paper_robot("multiped")}
+
+
+# the paper engine's step fractions (of its own stability rule; the paper's 0.9) for its
+# work-precision line, and its reference's
+PAPER_DT_FRACTION = 0.9
+ENGINE_FRACTIONS = (1.0, 0.9, 0.675, 0.45, 0.225)
+ENGINE_REFERENCE_FRACTION = 0.9 * 0.25 / REFERENCE_DIVISOR
+
+
+def _engine_job(item: tuple) -> tuple:
+    from engine_runs import load_vxa, run_engine
+
+    folder, name, grid, fraction = item
+    out = run_engine(load_vxa(folder), grid, dt_fraction=fraction, stop=SETTLE + WALK,
+                     measure_from=SETTLE)
+    return name, fraction, out
+
+
+def engine_rows(folder: Path, robots: dict[str, Robot], n_jobs: int) -> list[dict]:
+    """Accuracy rows of the paper engine on each 3D robot of `robots`: its distance over
+    the short window at each of ENGINE_FRACTIONS against its own run at
+    ENGINE_REFERENCE_FRACTION (the engine reports only the distance, so only the fitness
+    error is filled)."""
+    items = [(folder, name, robot.grid, fraction) for name, robot in robots.items()
+             if robot.dim == 3 for fraction in (*ENGINE_FRACTIONS, ENGINE_REFERENCE_FRACTION)]
+    with multiprocessing.get_context("fork").Pool(n_jobs) as pool:
+        done = pool.map(_engine_job, items)
+    runs = {(name, fraction): out for name, fraction, out in done}
+    rows = []
+    for name in dict.fromkeys(n for n, _ in runs):
+        ref = runs[(name, ENGINE_REFERENCE_FRACTION)]
+        for fraction in ENGINE_FRACTIONS:
+            out = runs[(name, fraction)]
+            stable = math.isfinite(out["distance"]) and abs(out["distance"]) < 1e3
+            error = abs(out["distance"] - ref["distance"])
+            rows.append({"robot": name, "window": "short", "integrator": "paper engine",
+                         "safety": fraction, "dt": "", "steps": "", "stable": stable,
+                         "cpu_s": round(out["cpu_s"], 4), "com_error_L": "",
+                         "fitness": round(out["distance"], 6),
+                         "fitness_error": f"{error:.4g}" if stable else "",
+                         "fitness_error_pct": f"{100 * error / max(abs(ref['distance']), 1e-9):.4g}"
+                         if stable else "",
+                         "ref_dt": ENGINE_REFERENCE_FRACTION, "ref_cpu_s": round(ref["cpu_s"], 3)})
+    return rows
 
 
 # ---------------------------------------------------------------------------- accuracy
@@ -347,18 +420,56 @@ def accuracy_rows(results: dict) -> list[dict]:
     return rows
 
 
+def twins_against_themselves(rows: list[dict]) -> list[dict]:
+    """The rows of the variants that run the pure-MuJoCo twin (all but "euler" and the
+    paper engine) measured against the twin's own run at its smallest stable step: the
+    reference run is the voxel pipeline's, a different model, so against it they would show
+    the models' difference, not their integration error. Their COM error is left blank
+    (the rows keep only the fitness); the smallest step's own error is 0. Applying it again
+    changes nothing."""
+    out, finest = [], {}
+    robots = accuracy_robots()
+
+    def distance(row: dict) -> float:  # the fitness without its voxel cost (3D)
+        robot = robots[row["robot"]]
+        return float(row["fitness"]) + (VOXEL_COST * robot.n_voxels if robot.dim == 3 else 0.0)
+
+    for row in rows:
+        if row["integrator"] in ("euler", "paper engine"):
+            continue
+        key = (row["robot"], row["window"], row["integrator"])
+        if str(row["stable"]) == "True" and (key not in finest or float(row["safety"])
+                                             < float(finest[key]["safety"])):
+            finest[key] = row
+    for row in rows:
+        key = (row["robot"], row["window"], row["integrator"])
+        if key not in finest:
+            out.append(row)
+            continue
+        ref = finest[key]
+        row = dict(row, com_error_L="", ref_dt=ref["dt"], ref_cpu_s=ref["cpu_s"])
+        if str(row["stable"]) == "True":
+            error = abs(float(row["fitness"]) - float(ref["fitness"]))
+            row.update(fitness_error=f"{error:.4g}",
+                       fitness_error_pct=f"{100 * error / max(abs(distance(ref)), 1e-9):.4g}")
+        out.append(row)
+    return out
+
+
 def convergence_orders(rows: list[dict]) -> list[dict]:
-    """Least-squares slope of log(error) against log(dt) per robot, window, integrator."""
+    """Least-squares slope of log(error) against log(step) per robot, window, integrator
+    (the step as its multiple of the stability rule: the safety, the engine's fraction)."""
     out = []
     groups: dict[tuple, list[dict]] = {}
     for row in rows:
-        if row["com_error_L"] != "":
+        if row["com_error_L"] != "" or row["fitness_error"] not in ("", None):
             groups.setdefault((row["robot"], row["window"], row["integrator"]), []).append(row)
     for (robot, window, variant), group in sorted(groups.items()):
-        dts = np.log([r["dt"] for r in group])
+        dts = np.log([float(r["safety"]) for r in group])  # ∝ the step, for each code
         entry = {"robot": robot, "window": window, "integrator": variant, "points": len(group)}
         for column, label in (("com_error_L", "com_order"), ("fitness_error", "fitness_order")):
-            errors = np.array([float(r[column]) for r in group])
+            errors = np.array([float(r[column]) if r[column] not in ("", None) else 0.0
+                               for r in group])
             ok = errors > 0
             entry[label] = (f"{np.polyfit(dts[ok], np.log(errors[ok]), 1)[0]:.2f}"
                             if ok.sum() >= 2 else "")
@@ -390,7 +501,7 @@ def plot_work_precision(rows: list[dict], path: Path) -> None:
 
     robots = list(dict.fromkeys(r["robot"] for r in rows if r["window"] == "short"))
     fig, axes = plt.subplots(2, len(robots), figsize=(3.2 * len(robots), 5.6), squeeze=False)
-    styles = {"euler": ("C0", "o", "-"), "rk4": ("C1", "s", "-"),
+    styles = {"paper engine": ("k", "D", "-"), "euler": ("C0", "o", "-"), "rk4": ("C1", "s", "-"),
               "euler-mid": ("C0", "o", "--"), "rk4-mid": ("C1", "s", "--"),
               "implicit": ("C2", "^", ":"), "implicitfast": ("C3", "v", ":")}
     for col, robot in enumerate(robots):
@@ -406,7 +517,8 @@ def plot_work_precision(rows: list[dict], path: Path) -> None:
                 ax.loglog([float(r["cpu_s"]) for r in pts], [float(r[column]) for r in pts],
                           color=colour, marker=marker, linestyle=line, markersize=4,
                           label=variant)
-                default = [r for r in pts if float(r["safety"]) == 0.75]
+                default_safety = PAPER_DT_FRACTION if variant == "paper engine" else 0.75
+                default = [r for r in pts if float(r["safety"]) == default_safety]
                 if default:
                     ax.plot(float(default[0]["cpu_s"]), float(default[0][column]), "k*",
                             markersize=9, zorder=5)
@@ -418,9 +530,10 @@ def plot_work_precision(rows: list[dict], path: Path) -> None:
             ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
             ax.yaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
             ax.grid(True, which="major", alpha=0.3)
-    axes[0][0].legend(fontsize=7)
-    fig.suptitle("Work–precision: settle 0.05 s + 0.1 s walking; ★ = default dt "
-                 "(safety 0.75), reference Euler at dt_min/16", fontsize=9)
+    axes[1][0].legend(fontsize=7)
+    fig.suptitle("Work–precision: settle 0.05 s + 0.1 s walking; ★ = default step (safety "
+                 "0.75; the engine's DtFrac 0.9), reference: the same code at a 16th of "
+                 "its smallest step", fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=80)
     plt.close(fig)
@@ -597,11 +710,268 @@ STABILITY_FIELDS = ["case", "voxels", "zeta", "default_safety", "default_dt", "d
                     "rule_stable", "rule_margin", "runs", "cpu_s", "default_reason"]
 
 
+# ---------------------------------------------------------------------------- chaos
+
+PERTURBATIONS = (1e-9, 1e-6, 1e-4)  # voxel lengths: standard deviations of initial shifts
+PERTURBED_RUNS = 5  # per size and robot
+CHAOS_SAFETIES = (0.5, 0.55, 0.6, 0.65, 0.7, 0.75, 0.8, 0.85)
+HALVINGS = 5  # the step ladder: the default step halved 1 … HALVINGS times
+LADDER_RULES = ("momentum", "energy")  # friction stop rules on the ladder
+CONVERGED_FROM = 3  # the ladder's steps from this halving on estimate the limit
+CHAOS_FIELDS = ["robot", "default", *(f"shift_{p:g}_std" for p in PERTURBATIONS),
+                "safeties_median", "safeties_min", "safeties_max",
+                *(f"ladder_{r}" for r in LADDER_RULES), "converged", "converged_spread",
+                "default_error"]
+
+
+def chaos_jobs() -> list[tuple]:
+    """(key, Run) of the paper's window (0.05 + 0.5 s) for each paper robot: the default;
+    PERTURBED_RUNS runs from initial positions shifted by each of PERTURBATIONS; one run
+    per CHAOS_SAFETIES; and the step ladder, the default step halved 1 … HALVINGS times,
+    with each friction stop rule of LADDER_RULES (the energy rule at the default step too)."""
+    jobs = []
+    for name in ("tripod", "biped", "multiped"):
+        robot = paper_robot(name)
+        physics = BASE["physics"]
+        base = Run(robot=robot, physics=physics, settle=SETTLE, measured=0.5)
+        safety = physics.scene.timestep_safety
+        jobs.append(((name, "default", 0), base))
+        jobs += [((name, f"shift {size:g}", k), replace(base, perturb=size, seed=k))
+                 for size in PERTURBATIONS for k in range(1, PERTURBED_RUNS + 1)]
+        jobs += [((name, "safety", s), replace(base, physics=physics.replace(
+            timestep_safety=s))) for s in CHAOS_SAFETIES]
+        for rule in LADDER_RULES:
+            for k in range(0 if rule != physics.pipeline.friction_stop else 1, HALVINGS + 1):
+                jobs.append(((name, f"ladder {rule}", k), replace(base, physics=physics.replace(
+                    timestep_safety=safety / 2 ** k, friction_stop=rule))))
+    return jobs
+
+
+def chaos_rows(results: dict) -> list[dict]:
+    """Per robot (voxel lengths): the default distance; the standard deviation of the
+    distance over the starts shifted by each size; the spread over the time-step safeties;
+    the step ladder of each friction rule; the limit it converges to (mean of the ladder's
+    steps from CONVERGED_FROM halvings on, both rules) and their spread; the default's
+    difference from that limit."""
+    rows = []
+    default_rule = BASE["physics"].pipeline.friction_stop
+    for name in dict.fromkeys(key[0] for key in results):
+        def runs(kind: str) -> dict:
+            return {key[2]: out["distance"] for key, out in results.items()
+                    if key[0] == name and key[1] == kind and out["stable"]}
+        default = results[(name, "default", 0)]["distance"]
+        steps = np.array(list(runs("safety").values()))
+        row = {"robot": name, "default": round(default, 4)}
+        for size in PERTURBATIONS:
+            shifted = np.array(list(runs(f"shift {size:g}").values()))
+            row[f"shift_{size:g}_std"] = f"{shifted.std(ddof=1):.2g}"
+        row.update(safeties_median=round(float(np.median(steps)), 3),
+                   safeties_min=round(float(steps.min()), 3),
+                   safeties_max=round(float(steps.max()), 3))
+        tail = []
+        for rule in LADDER_RULES:
+            ladder = runs(f"ladder {rule}")
+            if rule == default_rule:
+                ladder[0] = default
+            row[f"ladder_{rule}"] = " ".join(f"{ladder[k]:.3f}" for k in sorted(ladder))
+            tail += [ladder[k] for k in sorted(ladder) if k >= CONVERGED_FROM]
+        converged = float(np.mean(tail))
+        row.update(converged=round(converged, 3),
+                   converged_spread=round(float(np.ptp(tail)), 3),
+                   default_error=round(abs(default - converged), 3))
+        rows.append(row)
+    return rows
+
+
+# ---------------------------------------------------------------------------- report
+
+def _default_rows(rows: list[dict], variant: str, safety: float) -> dict[str, dict]:
+    return {r["robot"]: r for r in rows if r["integrator"] == variant and r["window"] == "short"
+            and float(r["safety"]) == safety}
+
+
+def report_text(accuracy: list[dict], orders: list[dict], stability: list[dict],
+                chaos: list[dict], minutes: float, engine: bool) -> str:
+    """docs/accuracy.md from the studies' rows."""
+    ours = _default_rows(accuracy, "euler", 0.75)
+    theirs = _default_rows(accuracy, "paper engine", PAPER_DT_FRACTION)
+    lines = ["| robot | voxels | mjregen: dt | CPU s | fitness error (L) | error % | "
+             "paper engine: CPU s | fitness error (L) | error % |", "|---" * 9 + "|"]
+    robots = accuracy_robots()
+    for name, row in ours.items():
+        engine_row = theirs.get(name, {})
+        lines.append(f"| {name} | {robots[name].n_voxels} | {float(row['dt']):.3g} | "
+                     f"{float(row['cpu_s']):.3f} | {row['fitness_error']} | "
+                     f"{row['fitness_error_pct']} | {engine_row.get('cpu_s', '—')} | "
+                     f"{engine_row.get('fitness_error', '—')} | "
+                     f"{engine_row.get('fitness_error_pct', '—')} |")
+    defaults = "\n".join(lines)
+    shared = [name for name in ours if name in theirs]
+    cpu_ratios = [float(ours[n]["cpu_s"]) / float(theirs[n]["cpu_s"]) for n in shared]
+    def error(row: dict) -> float:
+        return float(row["fitness_error"]) if row.get("fitness_error") not in ("", None) \
+            else math.inf
+
+    smaller = sum(error(ours[n]) <= error(theirs[n]) for n in shared)
+    compared = (f"On the robots both run, mjregen's default step costs "
+                f"{min(cpu_ratios):.2f}–{max(cpu_ratios):.2f} of the engine's CPU time at its "
+                f"default step over this window, and its fitness error (each against its own "
+                f"reference) is no larger than the engine's on {smaller} of {len(shared)}."
+                ) if shared else ""
+    order_lines = ["| robot | integrator | points | COM order | fitness order |",
+                   "|---|---|---|---|---|"]
+    order_lines += [f"| {o['robot']} | {o['integrator']} | {o['points']} | {o['com_order']} | "
+                    f"{o['fitness_order']} |" for o in orders
+                    if o["integrator"] in ("euler", "rk4", "paper engine")]
+    chaos_lines = ["| robot | default | std over shifted starts: "
+                   + ", ".join(f"{p:g} L" for p in PERTURBATIONS)
+                   + " | 8 safeties: median (range) | "
+                   + " | ".join(f"step halved 0/1 … {HALVINGS} times, {r} rule"
+                                for r in LADDER_RULES)
+                   + " | limit (spread) | default − limit |",
+                   "|---" * (6 + len(LADDER_RULES)) + "|"]
+    sentences = []
+    for c in chaos:
+        shifts = ", ".join(c[f"shift_{p:g}_std"] for p in PERTURBATIONS)
+        ladders = " | ".join(c[f"ladder_{r}"] for r in LADDER_RULES)
+        chaos_lines.append(
+            f"| {c['robot']} | {c['default']} | {shifts} | {c['safeties_median']} "
+            f"({c['safeties_min']}–{c['safeties_max']}) | {ladders} | {c['converged']} "
+            f"({c['converged_spread']}) | {c['default_error']} |")
+        error, limit = float(c["default_error"]), float(c["converged"])
+        sentences.append(
+            f"- **{c['robot']}**: at the default step its distance is {float(c['default']):.2f}, "
+            f"{100 * error / limit:.1f} % from the {limit:.2f} that shorter steps converge to "
+            f"(to {float(c['converged_spread']):.2g}); differences of fitness below about "
+            f"{max(error, float(c['safeties_max']) - float(c['safeties_min'])):.2g} voxel "
+            "lengths between such robots are the time step's, not the robots'.")
+    first = [float(c[f"shift_{PERTURBATIONS[0]:g}_std"]) for c in chaos]
+    low, high = min(first), max(first)
+    top = max(float(c[f"shift_{PERTURBATIONS[-1]:g}_std"]) for c in chaos)
+    stable = [r for r in stability if str(r["default_stable"]) == "True"]
+    margins = [float(r["margin"]) for r in stability if r["margin"] not in ("", None)]
+    stability_lines = ["| case | voxels | ζ | default dt | stable at the default | largest "
+                       "stable safety | margin |", "|---|---|---|---|---|---|---|"]
+    stability_lines += [f"| {r['case']} | {r['voxels']} | {r['zeta']} | {r['default_dt']} | "
+                        f"{r['default_stable']} | {r['max_stable_safety']} | {r['margin']} |"
+                        for r in stability]
+    engine_note = ("The paper's engine runs the same robots over the same window at step "
+                   f"fractions {', '.join(f'{f:g}' for f in ENGINE_FRACTIONS)} of its own "
+                   f"stability rule (the paper's {PAPER_DT_FRACTION}), against itself at "
+                   f"{ENGINE_REFERENCE_FRACTION:.3g}; it reports only the distance, so its "
+                   "line is in the fitness panels.") if engine else \
+        "(The paper engine's line needs `--voxelyze DIR`.)"
+    return f"""# Error against run time, and stability of the time step
+
+Generated by `python benchmarks/accuracy.py report --jobs 2 --voxelyze DIR` (about 20 min
+here; this run {minutes:.0f} min), DIR the paper engine's folder (its `vxa.py`, as for benchmarks/speed.py). The
+physics is the default, `Physics()` (the voxel plugin with the paper engine's laws,
+docs/fidelity.md), stepped as `simulate` steps it (semi-implicit Euler in the plugin's
+native stepper); "rk4" is the pure-MuJoCo pipeline's twin of it (MuJoCo's tendons and
+contacts, `mujoco_twin`), the only one that takes other integrators.
+
+## Work against precision
+Window: settle 0.05 s, then 0.1 s of walking (four muscle cycles). Steps: multiples
+{', '.join(f'{s:g}' for s in SAFETIES)} of each robot's stability limit (`timestep_safety`;
+the default is 0.75), each dividing the settle exactly; the reference is the same code at
+a {REFERENCE_DIVISOR}th of the smallest step. Errors: the final centre of mass's distance
+from the reference's and the fitness's difference, in voxel lengths; "rk4" runs another
+model (the twin), so its fitness is compared with its own run at its smallest stable step.
+{engine_note}
+
+![work-precision](accuracy_work_precision.png)
+
+At the default step:
+
+{defaults}
+
+{compared}
+
+Convergence orders (least-squares slope of log error against log step over the stable
+steps; Euler is first order, RK4 here runs contacts and a per-step muscle command):
+
+{chr(10).join(order_lines)}
+
+## How much of a fitness is physics
+The paper's window (0.05 + 0.5 s), each paper robot: the default run; {PERTURBED_RUNS} runs
+from starts whose voxels are shifted by normal random amounts of each of
+{', '.join(f'{p:g}' for p in PERTURBATIONS)} voxel lengths; the 8 time-step safeties
+{', '.join(f'{s:g}' for s in CHAOS_SAFETIES)}; and a ladder of ever shorter steps, the
+default halved up to {HALVINGS} times, with each friction stop rule ("momentum", the
+engine's and the default; "energy"). Distances in voxel lengths:
+
+{chr(10).join(chaos_lines)}
+
+{chr(10).join(sentences)}
+
+A start shifted by {PERTURBATIONS[0]:g} voxel lengths moves the distance by {low:.1g}–{high:.1g}
+(an amplification of {low / PERTURBATIONS[0]:.0f}–{high / PERTURBATIONS[0]:.0f}), one shifted by
+{PERTURBATIONS[-1]:g} by up to {top:.2g}: the walks respond to their start, but a rounding
+stays far below the time step's effect, which is what moves a fitness. A contact's stick or slip is decided within a step (a
+sliding voxel stops when the step's friction impulse reaches its momentum, a threshold
+speed proportional to the step), so a longer step can flip one such event and with it a
+stride; as the step shrinks both stop rules converge to the same limit (the ladder), which
+is Coulomb friction with sticking. Selection in an evolution compares robots at one step,
+so what matters is whether their differences exceed the step's effect above.
+
+## Stability
+Every case at its default step, and the largest stable `timestep_safety` found by
+bracketing and bisection (a run is stable when no state is NaN, MuJoCo does not warn and
+no voxel runs faster than 5 m/s, ending below {END_SPEED} m/s): {len(stable)} of
+{len(stability)} stable at the default; margins (largest stable / default safety)
+{min(margins):.2f}–{max(margins):.2f}.
+
+{chr(10).join(stability_lines)}
+"""
+
+
+def write_report(out: Path, n_jobs: int, voxelyze: Path | None, reuse: bool = False) -> None:
+    """Run the accuracy (with the paper engine), chaos and stability studies and write
+    docs/accuracy.md with their CSVs and figure; `reuse`: take each study whose CSV is in
+    `out` from it and run the others."""
+    wall0 = time.perf_counter()
+    def kept(name: str) -> list[dict] | None:
+        path = out / name
+        return read_csv(path) if reuse and path.exists() else None
+
+    rows = kept("accuracy_table.csv")
+    if rows is None:
+        results = run_jobs(accuracy_jobs(variants=("euler", "rk4"), full_window=False,
+                                         quick=False), n_jobs, cost=_run_cost)
+        rows = accuracy_rows(results)
+        if voxelyze is not None:
+            rows += engine_rows(voxelyze, accuracy_robots(), n_jobs)
+    rows = twins_against_themselves(rows)
+    write_csv(out / "accuracy_table.csv", rows, ACCURACY_FIELDS)
+    orders = convergence_orders(rows)
+    write_csv(out / "accuracy_orders.csv", orders)
+    plot_work_precision(rows, out / "accuracy_work_precision.png")
+    stability = kept("accuracy_stability.csv")
+    if stability is None:
+        cases = stability_cases()
+        with multiprocessing.get_context("fork").Pool(n_jobs) as pool:
+            stability = pool.map(_stability_job, [(c, "") for c in cases])
+        write_csv(out / "accuracy_stability.csv", stability, STABILITY_FIELDS)
+    chaos = kept("accuracy_chaos.csv")
+    if chaos is None:
+        chaos = chaos_rows(run_jobs(chaos_jobs(), n_jobs, cost=_run_cost))
+        write_csv(out / "accuracy_chaos.csv", chaos, CHAOS_FIELDS)
+    minutes = (time.perf_counter() - wall0) / 60
+    engine = any(r["integrator"] == "paper engine" for r in rows)
+    (out / "accuracy.md").write_text(report_text(rows, orders, stability, chaos, minutes,
+                                                 engine))
+
+
 # ---------------------------------------------------------------------------- main
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("study", choices=["accuracy", "stability", "plot"])
+    parser.add_argument("study", choices=["report", "accuracy", "stability", "chaos", "plot"])
+    parser.add_argument("--voxelyze", type=Path, default=None,
+                        help="report: the paper engine's folder (its vxa.py), for its line")
+    parser.add_argument("--reuse", action="store_true",
+                        help="report: take each study whose CSV is in OUT from it, run the "
+                        "others")
     parser.add_argument("--jobs", type=int, default=1, help="worker processes")
     parser.add_argument("--out", type=Path, default=DOCS, help="folder for CSV/PNG")
     parser.add_argument("--full-window", action="store_true",
@@ -627,7 +997,14 @@ def main(argv: list[str] | None = None) -> None:
     if args.timestep_rule:
         BASE["physics"] = BASE["physics"].replace(timestep_rule=args.timestep_rule)
         suffix += f"_{args.timestep_rule}"
-    if args.study == "accuracy":
+    if args.study == "report":
+        write_report(args.out, args.jobs, args.voxelyze, reuse=args.reuse)
+        print(args.out / "accuracy.md")
+    elif args.study == "chaos":
+        rows = chaos_rows(run_jobs(chaos_jobs(), args.jobs, cost=_run_cost))
+        write_csv(args.out / f"accuracy_chaos{suffix}.csv", rows, CHAOS_FIELDS)
+        print(markdown(rows, CHAOS_FIELDS))
+    elif args.study == "accuracy":
         jobs = accuracy_jobs(variants=tuple(args.variants.split(",")),
                              full_window=args.full_window, quick=args.quick)
         if args.robots:

@@ -16,6 +16,8 @@ import pytest
 
 from mjregen.grid import Material, Robot
 from mjregen.physics import MujocoPipeline, Physics
+from mjregen.physics.compile import compile_robot
+from mjregen.physics.simulation import simulation_of
 
 _SPEC = importlib.util.spec_from_file_location(
     "accuracy_benchmark", Path(__file__).resolve().parents[1] / "benchmarks" / "accuracy.py")
@@ -185,3 +187,47 @@ def test_stability_search_finds_the_damped_block_limit():
     case = accuracy.Case("soft block 4^3 zeta 2", heavily_damped_block())
     row = accuracy.stability_search(case, iterations=2)
     assert float(row["max_stable_safety"]) < Physics().scene.timestep_safety
+
+
+def test_perturbed_start_shifts_only_the_positions_by_the_given_size():
+    """`Run.perturb`: every voxel's initial centre moves by normal amounts of the given size
+    (voxel lengths), its orientation stays; the same seed, the same shift."""
+    robot = Robot.from_body(np.ones((4, 4, 4), dtype=np.int8))
+    compiled = compile_robot(robot)
+    shifted = []
+    for seed in (1, 1, 2):
+        sim = simulation_of(compiled)
+        accuracy.shift_positions(sim.model, sim.data, 1e-12, seed)
+        shifted.append(sim.data.qpos.reshape(-1, 7) - compiled.model.qpos0.reshape(-1, 7))
+    assert np.array_equal(shifted[0], shifted[1]) and not np.array_equal(shifted[0], shifted[2])
+    assert np.all(shifted[0][:, 3:] == 0.0)
+    assert np.std(shifted[0][:, :3]) == pytest.approx(1e-12, rel=0.2)
+
+
+def test_chaos_rows_summarise_the_runs_of_each_robot():
+    """Per robot: the shifted starts' spread per size, the safeties' range, each friction
+    rule's step ladder (the default rule's starts with the default run), the limit from
+    the ladders' last steps and the default's distance from it."""
+    def out(distance, stable=True):
+        return {"distance": distance, "dt": 1e-5, "stable": stable}
+
+    results = {("tripod", "default", 0): out(40.0)}
+    for size in accuracy.PERTURBATIONS:
+        for k, d in enumerate((39.0, 41.0, 40.0), start=1):
+            results[("tripod", f"shift {size:g}", k)] = out(d)
+    for s, d in ((0.5, 38.0), (0.75, 40.0), (0.8, 45.0)):
+        results[("tripod", "safety", s)] = out(d)
+    results[("tripod", "safety", 0.85)] = out(float("nan"), stable=False)
+    for k in range(1, accuracy.HALVINGS + 1):
+        results[("tripod", "ladder momentum", k)] = out(42.0 if k >= 3 else 41.0)
+    for k in range(0, accuracy.HALVINGS + 1):
+        results[("tripod", "ladder energy", k)] = out(42.5 if k >= 3 else 39.0)
+    (row,) = accuracy.chaos_rows(results)
+    assert row["default"] == 40.0
+    assert all(row[f"shift_{size:g}_std"] == "1" for size in accuracy.PERTURBATIONS)
+    assert (row["safeties_median"], row["safeties_min"], row["safeties_max"]) == (40.0, 38.0,
+                                                                               45.0)
+    assert row["ladder_momentum"] == "40.000 41.000 41.000 42.000 42.000 42.000"
+    assert row["ladder_energy"].split()[0] == "39.000"
+    assert (row["converged"], row["converged_spread"], row["default_error"]) == (42.25, 0.5,
+                                                                               2.25)
