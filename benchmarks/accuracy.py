@@ -716,19 +716,24 @@ PERTURBATIONS = (1e-9, 1e-6, 1e-4)  # voxel lengths: standard deviations of init
 PERTURBED_RUNS = 5  # per size and robot
 CHAOS_SAFETIES = (0.5, 0.55, 0.6, 0.65, 0.7, 0.75, 0.8, 0.85)
 HALVINGS = 5  # the step ladder: the default step halved 1 … HALVINGS times
-LADDER_RULES = ("momentum", "energy")  # friction stop rules on the ladder
+ENGINE_STEP = 2.0257e-5  # s, the paper engine's step with hard voxels
+# friction stop rules on the ladder: the engine's (the default), the energy rule, and the
+# engine's with its step fixed (a stop threshold that does not depend on the step)
+LADDERS = {"momentum": {"friction_stop": "momentum"}, "energy": {"friction_stop": "energy"},
+           "fixed": {"friction_stop": "momentum", "friction_stop_time": ENGINE_STEP}}
+LIMIT_LADDERS = ("momentum", "energy")  # the ladders whose short steps estimate the limit
 CONVERGED_FROM = 3  # the ladder's steps from this halving on estimate the limit
 CHAOS_FIELDS = ["robot", "default", *(f"shift_{p:g}_std" for p in PERTURBATIONS),
                 "safeties_median", "safeties_min", "safeties_max",
-                *(f"ladder_{r}" for r in LADDER_RULES), "converged", "converged_spread",
+                *(f"ladder_{r}" for r in LADDERS), "converged", "converged_spread",
                 "default_error"]
 
 
 def chaos_jobs() -> list[tuple]:
     """(key, Run) of the paper's window (0.05 + 0.5 s) for each paper robot: the default;
     PERTURBED_RUNS runs from initial positions shifted by each of PERTURBATIONS; one run
-    per CHAOS_SAFETIES; and the step ladder, the default step halved 1 … HALVINGS times,
-    with each friction stop rule of LADDER_RULES (the energy rule at the default step too)."""
+    per CHAOS_SAFETIES; and the step ladder, the default step halved 0 … HALVINGS times,
+    with each friction stop rule of LADDERS (the default's rung 0 is the default run)."""
     jobs = []
     for name in ("tripod", "biped", "multiped"):
         robot = paper_robot(name)
@@ -740,21 +745,22 @@ def chaos_jobs() -> list[tuple]:
                  for size in PERTURBATIONS for k in range(1, PERTURBED_RUNS + 1)]
         jobs += [((name, "safety", s), replace(base, physics=physics.replace(
             timestep_safety=s))) for s in CHAOS_SAFETIES]
-        for rule in LADDER_RULES:
-            for k in range(0 if rule != physics.pipeline.friction_stop else 1, HALVINGS + 1):
+        for rule, changes in LADDERS.items():
+            start = 1 if physics.replace(**changes) == physics else 0
+            for k in range(start, HALVINGS + 1):
                 jobs.append(((name, f"ladder {rule}", k), replace(base, physics=physics.replace(
-                    timestep_safety=safety / 2 ** k, friction_stop=rule))))
+                    timestep_safety=safety / 2 ** k, **changes))))
     return jobs
 
 
 def chaos_rows(results: dict) -> list[dict]:
     """Per robot (voxel lengths): the default distance; the standard deviation of the
     distance over the starts shifted by each size; the spread over the time-step safeties;
-    the step ladder of each friction rule; the limit it converges to (mean of the ladder's
-    steps from CONVERGED_FROM halvings on, both rules) and their spread; the default's
+    the step ladder of each friction rule; the limit they converge to (mean of the
+    LIMIT_LADDERS' steps from CONVERGED_FROM halvings on) and their spread; the default's
     difference from that limit."""
     rows = []
-    default_rule = BASE["physics"].pipeline.friction_stop
+    physics = BASE["physics"]
     for name in dict.fromkeys(key[0] for key in results):
         def runs(kind: str) -> dict:
             return {key[2]: out["distance"] for key, out in results.items()
@@ -769,12 +775,13 @@ def chaos_rows(results: dict) -> list[dict]:
                    safeties_min=round(float(steps.min()), 3),
                    safeties_max=round(float(steps.max()), 3))
         tail = []
-        for rule in LADDER_RULES:
+        for rule, changes in LADDERS.items():
             ladder = runs(f"ladder {rule}")
-            if rule == default_rule:
+            if physics.replace(**changes) == physics:
                 ladder[0] = default
             row[f"ladder_{rule}"] = " ".join(f"{ladder[k]:.3f}" for k in sorted(ladder))
-            tail += [ladder[k] for k in sorted(ladder) if k >= CONVERGED_FROM]
+            if rule in LIMIT_LADDERS:
+                tail += [ladder[k] for k in sorted(ladder) if k >= CONVERGED_FROM]
         converged = float(np.mean(tail))
         row.update(converged=round(converged, 3),
                    converged_spread=round(float(np.ptp(tail)), 3),
@@ -826,14 +833,14 @@ def report_text(accuracy: list[dict], orders: list[dict], stability: list[dict],
     chaos_lines = ["| robot | default | std over shifted starts: "
                    + ", ".join(f"{p:g} L" for p in PERTURBATIONS)
                    + " | 8 safeties: median (range) | "
-                   + " | ".join(f"step halved 0/1 … {HALVINGS} times, {r} rule"
-                                for r in LADDER_RULES)
+                   + " | ".join(f"step halved 0 … {HALVINGS} times, {r} rule"
+                                for r in LADDERS)
                    + " | limit (spread) | default − limit |",
-                   "|---" * (6 + len(LADDER_RULES)) + "|"]
+                   "|---" * (6 + len(LADDERS)) + "|"]
     sentences = []
     for c in chaos:
         shifts = ", ".join(c[f"shift_{p:g}_std"] for p in PERTURBATIONS)
-        ladders = " | ".join(c[f"ladder_{r}"] for r in LADDER_RULES)
+        ladders = " | ".join(c[f"ladder_{r}"] for r in LADDERS)
         chaos_lines.append(
             f"| {c['robot']} | {c['default']} | {shifts} | {c['safeties_median']} "
             f"({c['safeties_min']}–{c['safeties_max']}) | {ladders} | {c['converged']} "
@@ -897,8 +904,12 @@ The paper's window (0.05 + 0.5 s), each paper robot: the default run; {PERTURBED
 from starts whose voxels are shifted by normal random amounts of each of
 {', '.join(f'{p:g}' for p in PERTURBATIONS)} voxel lengths; the 8 time-step safeties
 {', '.join(f'{s:g}' for s in CHAOS_SAFETIES)}; and a ladder of ever shorter steps, the
-default halved up to {HALVINGS} times, with each friction stop rule ("momentum", the
-engine's and the default; "energy"). Distances in voxel lengths:
+default halved up to {HALVINGS} times, with each friction stop rule: "momentum" (the
+engine's and the default: a sliding voxel stops when the step's friction impulse
+μ_k N dt reaches its momentum), "energy" (when the step's friction work would exceed its
+kinetic energy) and "fixed" (the momentum rule over a fixed {ENGINE_STEP:.3g} s, the
+engine's step, instead of the step: `friction_stop_time`, a stop threshold that does not
+depend on the step). Distances in voxel lengths:
 
 {chr(10).join(chaos_lines)}
 
@@ -910,9 +921,14 @@ A start shifted by {PERTURBATIONS[0]:g} voxel lengths moves the distance by {low
 stays far below the time step's effect, which is what moves a fitness. A contact's stick or slip is decided within a step (a
 sliding voxel stops when the step's friction impulse reaches its momentum, a threshold
 speed proportional to the step), so a longer step can flip one such event and with it a
-stride; as the step shrinks both stop rules converge to the same limit (the ladder), which
-is Coulomb friction with sticking. Selection in an evolution compares robots at one step,
-so what matters is whether their differences exceed the step's effect above.
+stride; as the step shrinks the momentum and energy rules converge to the same limit (the
+ladder), Coulomb friction with sticking, whose threshold speed goes to zero with the step.
+The fixed rule keeps a finite threshold: at the engine's step it is the engine's rule, at
+shorter steps it stops every voxel slower than μ_k (N/m)·{ENGINE_STEP:.3g} s at once, a
+stickier law that walks elsewhere (its ladder), farther from the engine's distances. So
+the default keeps the engine's rule: it converges, and at the default step it is the one
+docs/fidelity.md measures. Selection in an evolution compares robots at one step, so what
+matters is whether their differences exceed the step's effect above.
 
 ## Stability
 Every case at its default step, and the largest stable `timestep_safety` found by

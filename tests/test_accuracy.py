@@ -222,6 +222,7 @@ def test_chaos_rows_summarise_the_runs_of_each_robot():
         results[("tripod", "ladder momentum", k)] = out(42.0 if k >= 3 else 41.0)
     for k in range(0, accuracy.HALVINGS + 1):
         results[("tripod", "ladder energy", k)] = out(42.5 if k >= 3 else 39.0)
+        results[("tripod", "ladder fixed", k)] = out(30.0)  # not a limit ladder
     (row,) = accuracy.chaos_rows(results)
     assert row["default"] == 40.0
     assert all(row[f"shift_{size:g}_std"] == "1" for size in accuracy.PERTURBATIONS)
@@ -229,5 +230,6 @@ def test_chaos_rows_summarise_the_runs_of_each_robot():
                                                                                45.0)
     assert row["ladder_momentum"] == "40.000 41.000 41.000 42.000 42.000 42.000"
     assert row["ladder_energy"].split()[0] == "39.000"
+    assert row["ladder_fixed"] == " ".join(["30.000"] * (accuracy.HALVINGS + 1))
     assert (row["converged"], row["converged_spread"], row["default_error"]) == (42.25, 0.5,
                                                                                2.25)

@@ -258,3 +258,29 @@ def test_self_collision_candidate_list_never_changes_the_result(monkeypatch):
         assert sim.run(round(0.03 / compiled.timestep)) == ""
         states.append(sim.data.qpos.copy())
     assert np.array_equal(states[0], states[1])
+
+
+@pytest.mark.parametrize("stop_time", [None, 2e-3])
+def test_sliding_voxel_stops_at_the_threshold_speed_of_its_stop_rule(stop_time):
+    """Kicked to v0 = 0.1 m/s, a voxel decelerates at μk g and sticks once its speed is
+    below v* = μk g t, t the step (the engine's rule) or `friction_stop_time`: it slides
+    (v0² − v*²)/(2 μk g) (to one step's travel v0 dt, Euler's error), whatever the step
+    when t is fixed; the engine's rule converges to v0²/(2 μk g) as the step shrinks."""
+    slides = []
+    for safety in (0.75, 0.75 / 4):
+        physics = NO_DRAG.replace(timestep_safety=safety, friction_stop_time=stop_time)
+        compiled, sim = voxel(physics=physics)
+        run(sim, 0.02)
+        x0 = sim.data.qpos[0]
+        sim.data.qvel[0] = 0.1
+        run(sim, 0.02)
+        assert abs(sim.data.qvel[0]) < 1e-15  # stuck
+        dt = compiled.timestep
+        threshold = 0.5 * G * (dt if stop_time is None else stop_time)
+        expected = (0.1**2 - threshold**2) / (2 * 0.5 * G)
+        assert sim.data.qpos[0] - x0 == pytest.approx(expected, abs=0.1 * dt)
+        slides.append((sim.data.qpos[0] - x0, dt))
+    if stop_time is not None:  # the same slide at both steps
+        (long, dt_long), (short, _) = slides
+        assert long == pytest.approx(short, abs=0.1 * dt_long)
+        assert 0.1**2 / (2 * 0.5 * G) - short > 0.1 * dt_long  # and not the engine rule's

@@ -128,6 +128,7 @@ def test_bad_scene_raises_naming_the_parameter(kwargs, word):
     (dict(collision_stiffness=0.0), "collision_stiffness"),
     (dict(collision_damping=-1.0), "collision_damping"),
     (dict(friction_stop="never"), "friction_stop must be one of"),
+    (dict(friction_stop_time=0.0), "friction_stop_time"),
     (dict(drag_law="fluid"), "drag_law must be one of"),
     (dict(beam_law="spring"), "beam_law must be one of"),
     (dict(beam_damping="rayleigh"), "beam_damping must be one of"),
@@ -185,7 +186,8 @@ def test_replace_with_an_unknown_field_names_both_field_sets():
     assert f"scene: {scene};" in message
     assert "voxel: beam_damping, beam_law, bond_element, bond_model, collision_damping, " \
            "collision_hops, collision_radius, collision_stiffness, drag_law, floor_damping, " \
-           "floor_stiffness, friction_stop, stepper, timestep_rule" in message
+           "floor_stiffness, friction_stop, friction_stop_time, stepper, timestep_rule" \
+           in message
     with pytest.raises(PhysicsParameterError) as mujoco:
         Physics().replace(pipeline="mujoco", bond_element="beam")
     message = str(mujoco.value)

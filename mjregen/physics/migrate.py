@@ -94,7 +94,7 @@ def _format_3_to_4(description: dict) -> dict:
     pipeline = dict(description["pipeline"])
     if pipeline.get("name") == "voxel":
         added = {"beam_law": "tendons", "beam_damping": "stiffness_proportional",
-                 "friction_stop": "energy",
+                 "friction_stop": "energy", "friction_stop_time": None,
                  "collision_stiffness": pipeline.get("floor_stiffness", 2.0),
                  "collision_damping": pipeline.get("floor_damping", 0.8),
                  "collision_hops": 0, "drag_law": "stokes",

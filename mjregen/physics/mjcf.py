@@ -124,6 +124,7 @@ def add_voxel_plugin(spec: mujoco.MjSpec, layout: RobotLayout, physics: Physics,
         "kinetic_friction": _numbers([p.friction if p.kinetic_friction is None
                                       else p.kinetic_friction for p in props]),
         "friction_stop": pipeline.friction_stop,
+        "friction_stop_time": repr(pipeline.friction_stop_time or 0.0),
         "collision_radius": repr(pipeline.collision_radius * L),
         "collision_skin": repr(COLLISION_SKIN * L),
         "collision_stiffness": _numbers(collision_stiffness),

@@ -40,7 +40,8 @@ ATTRIBUTES = (
     "element", "bonds", "bond_axis", "bond_muscle", "bond_stiffness", "bond_axial_law",
     "bond_beta", "tendon_bond", "tendon_sites", "tendon_stiffness", "tendon_damping",
     "tendon_rest", "tendon_lateral2", "floor", "floor_stiffness", "floor_damping",
-    "static_friction", "kinetic_friction", "friction_stop", "collision_radius",
+    "static_friction", "kinetic_friction", "friction_stop", "friction_stop_time",
+    "collision_radius",
     "collision_skin", "collision_stiffness", "collision_damping", "collision_hops", "grid",
     "collides", "drag_linear", "drag_rotational",
 )

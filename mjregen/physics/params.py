@@ -224,6 +224,10 @@ class VoxelPipeline:
         step's friction impulse μ_k N dt reaches its momentum m|v|; a voxel with no
         horizontal velocity at all is at rest) or "energy" (when the step's friction work
         would exceed its kinetic energy).
+      friction_stop_time: s, the time t over which the "momentum" rule takes the friction
+        impulse μ_k N t: None = the step (the engine's rule, whose threshold speed μ_k N dt/m
+        shrinks with the step), or a fixed time: a rule that does not depend on the step
+        (the engine's with its own step fixed, e.g. 2.03e-5 s, its step with hard voxels).
       collision_radius: self-collision sphere radius in voxel lengths, at the voxel's
         current size (the paper engine's 0.75: voxels repel from a centre distance of
         1.5 L). 0 = no self-collision.
@@ -254,6 +258,7 @@ class VoxelPipeline:
     floor_stiffness: float = 2.0
     floor_damping: float = 0.8
     friction_stop: str = "momentum"
+    friction_stop_time: float | None = None
     collision_radius: float = 0.75
     collision_stiffness: float = 1.0
     collision_damping: float = 0.0
@@ -270,6 +275,8 @@ class VoxelPipeline:
         _check("floor_stiffness", self.floor_stiffness, low=0.0)
         _check("floor_damping", self.floor_damping, low=0.0, low_open=False)
         _choice("friction_stop", self.friction_stop, FRICTION_STOPS)
+        if self.friction_stop_time is not None:
+            _check("friction_stop_time", self.friction_stop_time, low=0.0)
         if isinstance(self.collision_hops, bool) or not isinstance(self.collision_hops, int) \
                 or self.collision_hops < 0:
             raise PhysicsParameterError(

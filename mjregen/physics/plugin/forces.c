@@ -507,8 +507,9 @@ static void self_collision(mjrVoxels* v, double ep, double em) {
    velocity is cancelled within the step) until the other horizontal forces exceed mu_s N,
    and then moves without friction for that step; a sliding one feels mu_k N against its
    horizontal velocity, and sticks when the step would stop it: friction_momentum, the
-   engine's test, when the friction impulse mu_k N dt reaches its momentum m |v|; else when
-   the step's friction work would exceed its kinetic energy. The other horizontal forces:
+   engine's test, when the friction impulse mu_k N t reaches its momentum m |v| (t the step,
+   or stop_time: then the rule does not depend on the step); else when the step's friction
+   work would exceed its kinetic energy. The other horizontal forces:
    bonds, drag and self-collision (in scratch), MuJoCo's own passive forces, qfrc_applied,
    xfrc_applied and gravity (a voxel's centre of mass is at its joint, so no other bias
    force acts on its translation). */
@@ -561,8 +562,8 @@ static void engine_floor(const mjModel* m, const mjData* d, mjrVoxels* v, const 
       fric[1] = -v->mu_k[n] * normal * vh[1] / speed;
     }
     int stops;
-    if (v->friction_momentum) { /* the step's friction impulse would take all its momentum */
-      stops = v->mu_k[n] * normal * dt >= mass * speed;
+    if (v->friction_momentum) { /* the friction impulse over t would take all its momentum */
+      stops = v->mu_k[n] * normal * (v->stop_time > 0.0 ? v->stop_time : dt) >= mass * speed;
     } else { /* momentum after this step; its friction work would take all the energy */
       double p0 = mass * vh[0] + dt * (other[0] + fric[0]);
       double p1 = mass * vh[1] + dt * (other[1] + fric[1]);

@@ -389,6 +389,11 @@ static mjrVoxels* configure(const mjModel* m, int instance, char* error, int err
       ok = 0;
     }
   }
+  if (ok) v->stop_time = parse_scalar(m, instance, "friction_stop_time", &ok, error, error_sz);
+  if (ok && !(v->stop_time >= 0.0)) {
+    snprintf(error, error_sz, "mjregen.voxels: friction_stop_time must be >= 0");
+    ok = 0;
+  }
   if (ok) v->coll_radius = parse_scalar(m, instance, "collision_radius", &ok, error, error_sz);
   if (ok) v->coll_skin = parse_scalar(m, instance, "collision_skin", &ok, error, error_sz);
   DOUBLES(ck, "collision_stiffness", n)

@@ -43,6 +43,7 @@
   X(static_friction)  /* (n) */                                                      \
   X(kinetic_friction) /* (n) */                                                      \
   X(friction_stop)    /* momentum | energy: when a sliding voxel sticks */           \
+  X(friction_stop_time) /* s, the momentum rule's impulse time; 0: the step */       \
   X(collision_radius) /* m at the voxel's nominal size; 0: no self-collision */      \
   X(collision_skin)   /* m, Verlet-list skin */                                      \
   X(collision_stiffness) /* (n) N/m; a pair: the harmonic mean */                    \
@@ -119,8 +120,10 @@ typedef struct {
   double* fc;             /* (nvox) N s/m floor damping */
   double* mu_s;           /* (nvox) */
   double* mu_k;           /* (nvox) */
-  int friction_momentum;  /* sliding stops when mu_k N dt >= m |v| (the paper engine);
-                             0: when the step's friction work exceeds the kinetic energy */
+  int friction_momentum;  /* sliding stops when mu_k N t >= m |v| (the paper engine, t the
+                             step); 0: when the step's friction work exceeds the kinetic
+                             energy */
+  double stop_time;       /* s: t of the momentum rule; 0: the step */
   double coll_radius, coll_skin, coll_reach;
   double* ck;             /* (nvox) N/m collision stiffness (a pair: harmonic mean) */
   double* cc;             /* (nvox) N s/m collision damping (a pair: harmonic mean) */
