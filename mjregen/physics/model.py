@@ -24,8 +24,9 @@ same linear stiffness as the bundle, with "engine" the paper engine's beam (line
 spring, torsion G·J/L).
 
 The tendons' damping is stiffness-proportional: c = 2ζ sqrt(m k), m the mean voxel mass; the
-beams' follows `VoxelPipeline.beam_damping`. Muscles: a bond's axial rest length is L·(s₁+s₂)/2 with sᵢ the voxels'
-linear scales; each tendon's is sqrt((L s̄)² + d²), d its fixed lateral extent. Tendon
+beams' follows `VoxelPipeline.beam_damping`. Muscles: a bond's axial rest length is
+L·(s₁+s₂)/2 with sᵢ the voxels' linear scales; each tendon's is sqrt((L s̄)² + d²), d its
+fixed lateral extent. Tendon
 values are rounded as MJCF writes them (`round_like_mjcf`), so the pure-MuJoCo model's file
 reproduces its tendons bit for bit.
 """
@@ -210,9 +211,9 @@ def bond_tables(layout: RobotLayout, physics: Physics
     """
     scene, pipeline = physics.scene, physics.pipeline
     bond_model = pipeline.bond_model
-    beams_as_voxel = isinstance(pipeline, VoxelPipeline)
-    engine_beam = beams_as_voxel and pipeline.beam_law == "engine"
-    engine_damping = beams_as_voxel and pipeline.beam_damping == "engine"
+    voxel_pipeline = isinstance(pipeline, VoxelPipeline)  # the MuJoCo one has no beams
+    engine_beam = voxel_pipeline and pipeline.beam_law == "engine"
+    engine_damping = voxel_pipeline and pipeline.beam_damping == "engine"
     L = scene.voxel_size
     ratios = {physics.materials[m].poisson_ratio for _, m in layout.voxels}
     if len(ratios) > 1:
