@@ -284,3 +284,19 @@ def test_sliding_voxel_stops_at_the_threshold_speed_of_its_stop_rule(stop_time):
         (long, dt_long), (short, _) = slides
         assert long == pytest.approx(short, abs=0.1 * dt_long)
         assert 0.1**2 / (2 * 0.5 * G) - short > 0.1 * dt_long  # and not the engine rule's
+
+
+def test_a_robot_where_no_pair_can_collide_moves_the_same_with_or_without_collisions():
+    """A 2×2×2 block (every two voxels at most 3 bonds apart, so no pair may ever collide):
+    the plugin runs no collision stage, and the motion is bit for bit that of the block
+    with self-collision off, muscles working on the floor."""
+    robot = Robot.from_body(np.array([[[1, 3], [4, 1]], [[3, 1], [1, 4]]], dtype=np.int8))
+    states = []
+    for radius in (0.75, 0.0):
+        physics = Physics().replace(collision_radius=radius, settle_time=0.005)
+        compiled = compile_robot(robot, physics=physics)
+        sim = simulation_of(compiled)
+        assert sim.run(round(0.03 / compiled.timestep)) == ""
+        states.append(sim.data.qpos.copy())
+    assert np.array_equal(states[0], states[1])
+    assert np.abs(states[0] - compile_robot(robot).model.qpos0).max() > 1e-5  # it moved

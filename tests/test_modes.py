@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -192,3 +194,27 @@ def test_compiled_robot_reports_the_rates_behind_its_step():
     assert damping > 2.0 * np.sqrt(stiffness)  # mode damping ratio above 1
     assert compile_robot(Robot.from_body(np.ones((3, 3, 3), dtype=np.int8)),
                          physics=STIFFEST_BOND).network_rates is None
+
+
+def test_a_robot_without_hard_voxels_takes_nothing_from_the_hard_material():
+    """The step is the robot's own network's: a soft block's step and motion do not depend
+    on the hard material's modulus (the engine's rule would take its stiffest material's);
+    one hard voxel in it shortens the step only as far as its own bonds need."""
+    soft = Robot.from_body(np.ones((3, 3, 3), np.int8))
+    physics = Physics().replace(settle_time=0.0)
+    materials = dict(physics.materials)
+    hard = materials[Material.HARD]
+    materials[Material.HARD] = dataclasses.replace(hard, youngs_modulus=10 * hard.youngs_modulus)
+    stiff = Physics(materials=materials, scene=physics.scene, pipeline=physics.pipeline)
+    runs = []
+    for p in (physics, stiff):
+        compiled = compile_robot(soft, physics=p)
+        sim = simulation_of(compiled)
+        assert sim.run(2000) == ""
+        runs.append((compiled.timestep, sim.data.qpos.copy()))
+    assert runs[0][0] == runs[1][0] and np.array_equal(runs[0][1], runs[1][1])
+    grid = soft.grid.copy()
+    grid[tuple(np.argwhere(grid)[0])] = Material.HARD  # a corner voxel
+    one_hard = compile_robot(Robot(grid), physics=physics).timestep
+    assert one_hard < runs[0][0]
+    assert one_hard > runs[0][0] / np.sqrt(5.0)  # not the hard material's step

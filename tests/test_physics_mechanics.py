@@ -333,3 +333,20 @@ def test_point_contacts_rest_like_the_engine_and_exert_no_moment(shape, spin):
     # "point": no rolling, friction acts through the centre; "sphere": at the bottom, it rolls
     assert spin[0] <= np.linalg.norm(data.qvel[3:6]) < spin[1]
     assert data.qvel[0] < 0.1
+
+
+def test_resting_muscles_move_as_soft_voxels():
+    """Until the settle ends the muscles do not work: the paper's multiped with its muscle
+    voxels moves as the same robot with those voxels soft, to rounding (the muscles' bonds
+    come first, so the forces are summed in another order)."""
+    multiped = Robot.load("assets/robots/paper/multiped.npy")
+    grid = multiped.grid.copy()
+    grid[grid >= Material.MUSCLE_PLUS] = Material.SOFT
+    states = []
+    for robot in (multiped, Robot(grid)):
+        compiled = compile_robot(robot)
+        sim = simulation_of(compiled)
+        settle, _ = Physics().scene.timing(3)
+        assert sim.run(round(settle / compiled.timestep)) == ""
+        states.append(sim.data.qpos.copy())
+    assert np.abs(states[0] - states[1]).max() < 1e-12

@@ -175,6 +175,19 @@ static unsigned char* never_colliding(const mjrVoxels* v) {
   return near;
 }
 
+/* Whether any two colliding voxels are not excluded from colliding (coll_near built). */
+static int some_pair_may_collide(const mjrVoxels* v) {
+  size_t n = (size_t)v->nvox;
+  for (size_t i = 0; i < n; i++) {
+    if (!v->collides[i]) continue;
+    for (size_t j = i + 1; j < n; j++) {
+      size_t k = i * n + j;
+      if (v->collides[j] && !((v->coll_near[k >> 3] >> (k & 7)) & 1)) return 1;
+    }
+  }
+  return 0;
+}
+
 /* The beam bonds' arrays (mjrBeams) from the parsed per-bond rows. */
 static void arrange_beams(mjrVoxels* v) {
   mjrBeams* b = &v->beam;
@@ -423,7 +436,10 @@ static mjrVoxels* configure(const mjModel* m, int instance, char* error, int err
   if (v->beams) arrange_beams(v);
   for (int i = 0; i < n; i++) v->drag |= v->drag_lin[i] > 0.0 || v->drag_rot[i] > 0.0;
   v->collide = v->coll_radius > 0 && colliders > 1;
-  if (v->collide) v->coll_near = never_colliding(v);
+  if (v->collide) {
+    v->coll_near = never_colliding(v);
+    v->collide = some_pair_may_collide(v);  /* else no collision stage at all */
+  }
   v->coll_reach = 2.0 * v->coll_radius * (1.0 + 2.0 * largest / v->voxel_size);
   v->state = (double*)calloc((size_t)MJR_STATE * n, sizeof(double));
   v->scratch = (double*)calloc((size_t)MJR_SCRATCH * n, sizeof(double));
