@@ -98,6 +98,19 @@ static double parse_scalar(const mjModel* m, int instance, const char* key, int*
   return out;
 }
 
+/* 1 if attribute `key` is `yes`, 0 if it is `no`; anything else: *ok = 0 and a message. */
+static int either(const mjModel* m, int instance, const char* key, const char* yes,
+                  const char* no, int* ok, char* error, int error_sz) {
+  const char* value = config(m, instance, key);
+  if (!strcmp(value, yes)) return 1;
+  if (strcmp(value, no)) {
+    snprintf(error, error_sz, "mjregen.voxels: %s must be '%s' or '%s', got '%s'", key, yes,
+             no, value);
+    *ok = 0;
+  }
+  return 0;
+}
+
 static void release(mjrVoxels* v) {
   if (!v) return;
   void* arrays[] = {v->qadr, v->vadr, v->body, v->pos0, v->half_p, v->half_m, v->bonds,
@@ -281,43 +294,19 @@ static mjrVoxels* configure(const mjModel* m, int instance, char* error, int err
   }
   if (ok) v->omega = 2.0 * mjPI * parse_scalar(m, instance, "frequency", &ok, error, error_sz);
   if (ok) v->start = parse_scalar(m, instance, "start", &ok, error, error_sz);
-  if (ok) {
-    const char* waveform = config(m, instance, "waveform");
-    if (!strcmp(waveform, "contract")) {
-      v->contract = 1;
-    } else if (strcmp(waveform, "symmetric")) {
-      snprintf(error, error_sz, "mjregen.voxels: waveform must be 'contract' or 'symmetric', "
-               "got '%s'", waveform);
-      ok = 0;
-    }
-  }
+  if (ok) v->contract = either(m, instance, "waveform", "contract", "symmetric", &ok, error,
+                               error_sz);
   v->ctrl_plus = v->ctrl_minus = -1;
-  if (ok) {
-    const char* drive = config(m, instance, "drive");
-    if (!strcmp(drive, "ctrl")) {
-      v->ctrl_plus = mj_name2id(m, mjOBJ_ACTUATOR, "muscle_plus");
-      v->ctrl_minus = mj_name2id(m, mjOBJ_ACTUATOR, "muscle_minus");
-      if (v->ctrl_plus < 0 || v->ctrl_minus < 0) {
-        snprintf(error, error_sz, "mjregen.voxels: drive 'ctrl' needs the actuators "
-                 "'muscle_plus' and 'muscle_minus'");
-        ok = 0;
-      }
-    } else if (strcmp(drive, "waveform")) {
-      snprintf(error, error_sz, "mjregen.voxels: drive must be 'waveform' or 'ctrl', got '%s'",
-               drive);
+  if (ok && either(m, instance, "drive", "ctrl", "waveform", &ok, error, error_sz)) {
+    v->ctrl_plus = mj_name2id(m, mjOBJ_ACTUATOR, "muscle_plus");
+    v->ctrl_minus = mj_name2id(m, mjOBJ_ACTUATOR, "muscle_minus");
+    if (v->ctrl_plus < 0 || v->ctrl_minus < 0) {
+      snprintf(error, error_sz, "mjregen.voxels: drive 'ctrl' needs the actuators "
+               "'muscle_plus' and 'muscle_minus'");
       ok = 0;
     }
   }
-  if (ok) {
-    const char* element = config(m, instance, "element");
-    if (!strcmp(element, "beam")) {
-      v->beams = 1;
-    } else if (strcmp(element, "tendons")) {
-      snprintf(error, error_sz, "mjregen.voxels: element must be 'beam' or 'tendons', got "
-               "'%s'", element);
-      ok = 0;
-    }
-  }
+  if (ok) v->beams = either(m, instance, "element", "beam", "tendons", &ok, error, error_sz);
   if (!ok) {
     release(v);
     return NULL;
@@ -392,16 +381,8 @@ static mjrVoxels* configure(const mjModel* m, int instance, char* error, int err
   DOUBLES(fc, "floor_damping", n)
   DOUBLES(mu_s, "static_friction", n)
   DOUBLES(mu_k, "kinetic_friction", n)
-  if (ok) {
-    const char* stop = config(m, instance, "friction_stop");
-    if (!strcmp(stop, "momentum")) {
-      v->friction_momentum = 1;
-    } else if (strcmp(stop, "energy")) {
-      snprintf(error, error_sz, "mjregen.voxels: friction_stop must be 'momentum' or "
-               "'energy', got '%s'", stop);
-      ok = 0;
-    }
-  }
+  if (ok) v->friction_momentum = either(m, instance, "friction_stop", "momentum", "energy",
+                                        &ok, error, error_sz);
   if (ok) v->stop_time = parse_scalar(m, instance, "friction_stop_time", &ok, error, error_sz);
   if (ok && !(v->stop_time >= 0.0)) {
     snprintf(error, error_sz, "mjregen.voxels: friction_stop_time must be >= 0");
