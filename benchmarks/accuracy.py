@@ -147,7 +147,7 @@ def evaluate(run: Run) -> dict:
 
     Keys: stable, reason, dt, steps, cpu (s of stepping), com_start/com_end ((3,) m),
     distance (voxel lengths, planar COM displacement after the settle), fitness, max_speed
-    (m/s, fastest voxel at the end).
+    (m/s, fastest voxel at the end), qpos (the final state).
     """
     name = run.integrator or getattr(run.physics.pipeline, "integrator", "euler")
     # the voxel plugin starts the muscles at the scene's settle time
@@ -189,7 +189,7 @@ def evaluate(run: Run) -> dict:
     fitness = distance - VOXEL_COST * run.robot.n_voxels if run.robot.dim == 3 else distance
     return {"stable": not reason, "reason": reason, "dt": dt, "steps": sim.steps, "cpu": cpu,
             "com_start": start, "com_end": end, "distance": distance, "fitness": fitness,
-            "max_speed": speed}
+            "max_speed": speed, "qpos": sim.data.qpos.copy()}
 
 
 def shift_positions(model: mujoco.MjModel, data: mujoco.MjData, sigma: float, seed: int
@@ -803,19 +803,13 @@ SKIP_FIELDS = ["skip", "robot", "with_cpu_s", "without_cpu_s", "saved", "max_qpo
 
 def _timed_run(robot: Robot, physics: Physics, settle_only: bool = False
                ) -> tuple[float, np.ndarray]:
-    """(CPU s, final qpos) of a `simulate`-like evaluation of `robot` over the paper window
-    (or its settle only)."""
-    compiled = compile_robot(robot, physics=physics)
-    sim = Simulation(compiled.model, physics=physics, muscles=compiled.muscles,
-                     plugin_instance=compiled.plugin_instance)
+    """(CPU s of the stepping, final qpos) of `evaluate` over the paper window (or its
+    settle only)."""
     settle, measured = physics.scene.timing(robot.dim)
-    duration = settle if settle_only else settle + measured
-    cpu0 = time.process_time()
-    reason = sim.run(round(duration / compiled.timestep))
-    cpu = time.process_time() - cpu0
-    if reason:
-        raise RuntimeError(f"unstable skip run: {reason}")
-    return cpu, sim.data.qpos.copy()
+    out = evaluate(Run(robot, physics, settle=settle, measured=0.0 if settle_only else measured))
+    if not out["stable"]:
+        raise RuntimeError(f"unstable skip run: {out['reason']}")
+    return out["cpu"], out["qpos"]
 
 
 def skip_cases() -> list[tuple[str, str, Robot, Physics, Robot, Physics, bool]]:

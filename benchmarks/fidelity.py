@@ -248,10 +248,9 @@ def variants() -> list[tuple[str, Physics]]:
     return out
 
 
-def _measure(item: tuple[int, str, Physics]) -> tuple[int, str, dict, bool]:
+def _measure(item: tuple[int, str, Physics]) -> tuple[int, str, CaseResult]:
     index, case, physics = item
-    result = CASES[case](physics)
-    return index, case, result.measures, result.stable
+    return index, case, CASES[case](physics)
 
 
 def heading_off(heading: float, name: str) -> float:
@@ -393,12 +392,12 @@ def write_report(reference: Path, doc: Path, jobs: int, plots: bool) -> None:
         spread_runs = pool.map(_walk, [(n, Physics(), s) for n in ROBOT_FILES
                                        for s in SAFETIES])
     measured: dict[int, dict] = {}
-    for index, case, measures, _ in done:
-        measured.setdefault(index, {})[case] = measures
+    for index, case, result in done:
+        measured.setdefault(index, {})[case] = result.measures
     now_index = next(i for i, (label, _) in enumerate(labelled) if label.startswith("**now"))
     now = measured[now_index]
     before = json.loads(BEFORE.read_text())
-    results = {case: CASES[case](Physics()) for case in (*ROBOT_FILES, *SMALL)}
+    results = {case: result for index, case, result in done if index == now_index}
     small_rows = [row for case in SMALL for row in rows(results[case])]
     diverge = divergence_rows(reference, labelled[0][1])
     rebounds = lone_voxel_rebounds()
