@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mjregen.fitness import locomotion_fitness
-from mjregen.grid import Robot
+from mjregen.grid import Material, Robot
 from mjregen.physics import Physics
 from mjregen.physics.simulation import simulate
 
@@ -38,6 +38,17 @@ class RobotEvaluation:
     reason: str
     steps: int
     cpu_time: float
+
+
+HARD_STEP_COST = 1.7  # steps of a robot with a hard voxel / without (measured on 3D blocks)
+
+
+def expected_cost(grid: np.ndarray) -> float:
+    """Relative CPU cost of simulating `grid` (int8 robot grid): its voxel count, times
+    HARD_STEP_COST when a hard voxel is present (its stiff bonds shorten the step). For
+    ordering work, not a measurement."""
+    voxels = float(np.count_nonzero(grid))
+    return voxels * HARD_STEP_COST if np.any(grid == Material.HARD) else voxels
 
 
 def evaluate_robot(job: RobotJob) -> RobotEvaluation:

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from mjregen.evaluation import PopulationEvaluation, RobotJob, evaluate_robot
+from mjregen.evaluation import PopulationEvaluation, RobotJob, evaluate_robot, expected_cost
 from mjregen.fitness import EMPTY_FITNESS, UNSTABLE_FITNESS
 from mjregen.nca import NCAConfig, grow
 from mjregen.parallel import Backend
@@ -57,7 +57,10 @@ class LocomotionTask:
         keys = list(distinct)
         present = [d for d, i in enumerate(firsts) if n_voxels[i] > 0]
         cached = {d: self._cache[keys[d]] for d in present if keys[d] in self._cache}
-        to_simulate = [d for d in present if d not in cached]
+        # the costliest robots first, so that no worker is left with a large one at the end
+        # of the generation while the others wait (results do not depend on the order)
+        to_simulate = sorted((d for d in present if d not in cached),
+                             key=lambda d: -expected_cost(grids[firsts[d]]))
         outcomes = backend.map(
             evaluate_robot,
             [RobotJob(grids[firsts[d]], self.physics, self.duration) for d in to_simulate],

@@ -4,6 +4,7 @@ walking a robot imports only what it needs."""
 from __future__ import annotations
 
 import ast
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -90,3 +91,25 @@ def test_walking_a_robot_imports_only_what_it_needs(tmp_path):
                           cwd=tmp_path, check=True)
     assert '"stable": true' in done.stdout
     assert done.stdout.strip().splitlines()[-1] == "[]"
+
+
+def test_importing_the_package_loads_neither_numpy_nor_mujoco():
+    probe = ("import sys, mjregen; print(sorted(m for m in ('numpy', 'mujoco', 'torch') "
+             "if m in sys.modules)); print(mjregen.Robot.__name__)")
+    done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
+                          check=True)
+    assert done.stdout.split() == ["[]", "Robot"]
+
+
+def test_the_command_starts_no_blas_threads_unless_the_user_asks(tmp_path):
+    """OpenBLAS starts its thread pool when numpy is imported: the `mjregen` command sets it
+    to one thread first, and keeps a user's own setting (threads counted in /proc)."""
+    probe = ("import os, mjregen.cli, numpy; print(os.environ['OPENBLAS_NUM_THREADS'], "
+             "len(os.listdir('/proc/self/task')))")
+    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
+    alone = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
+                           env=env, check=True).stdout.split()
+    asked = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
+                           env={**env, "OPENBLAS_NUM_THREADS": "2"}, check=True).stdout.split()
+    assert alone[0] == "1" and asked[0] == "2"
+    assert int(alone[1]) < int(asked[1])  # the user's second BLAS thread is there

@@ -5,12 +5,14 @@ import numpy as np
 import pytest
 
 import mjregen.locomotion as locomotion
+from mjregen.evaluation import HARD_STEP_COST, expected_cost
 from mjregen.fitness import (
     EMPTY_FITNESS,
     UNSTABLE_FITNESS,
     VOXEL_COST,
     locomotion_fitness,
 )
+from mjregen.grid import Material
 from mjregen.nca import NCAConfig, grow, random_genomes
 from mjregen.parallel import ProcessBackend, SerialBackend, ThreadBackend, make_backend
 from mjregen.physics import Physics
@@ -53,6 +55,29 @@ def test_each_distinct_robot_is_simulated_once_and_scored_like_simulate():
         expected = (locomotion_fitness(simulate(grid, physics=QUICK, duration=0.02))
                     if grid.any() else EMPTY_FITNESS[2])
         assert result.fitness[i] == expected
+
+
+def test_the_costliest_robots_are_handed_out_first():
+    """A worker that starts the largest robot last keeps the others waiting at the end of
+    a generation: jobs go out by expected cost, largest first (scores above are still each
+    robot's own)."""
+    submitted = []
+
+    class Recording(SerialBackend):
+        def map(self, fn, items):
+            submitted.extend(expected_cost(job.grid) for job in items)
+            return super().map(fn, items)
+
+    fresh_task().evaluate(random_genomes(NCA, 12, seed=7, std=0.5), Recording())
+    assert len(set(submitted)) > 2 and submitted == sorted(submitted, reverse=True)
+
+
+def test_a_hard_voxel_makes_a_robot_costlier_than_its_voxel_count():
+    soft = np.zeros((5, 5, 5), dtype=np.int8)
+    soft[1:4, 1:4, 1:4] = Material.SOFT
+    mixed = soft.copy()
+    mixed[2, 2, 2] = Material.HARD
+    assert expected_cost(soft) == 27 and expected_cost(mixed) == 27 * HARD_STEP_COST
 
 
 def test_robots_seen_in_earlier_generations_come_from_the_cache_with_the_same_result():

@@ -13,9 +13,15 @@ import sys
 import threading
 from typing import Callable, Sequence
 
-from mjregen import __version__, gl, interrupt
-from mjregen.cli import evolution, regeneration, robots
-from mjregen.errors import MjregenError, OutputExistsError
+# Before numpy is imported: numpy's BLAS does no work in a command worth a thread pool
+# (the physics is C, the networks torch), and OpenBLAS starting one costs each process
+# (the command and its workers, which inherit this) about 0.1 CPU s. A user's own
+# setting stands.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+from mjregen import __version__, gl, interrupt  # noqa: E402
+from mjregen.cli import evolution, regeneration, robots  # noqa: E402
+from mjregen.errors import MjregenError, OutputExistsError  # noqa: E402
 
 Handler = Callable[[argparse.Namespace], int]
 COMMANDS = (robots.add_grow, robots.add_show, robots.add_walk, robots.add_export, robots.add_render,
