@@ -207,11 +207,12 @@ def startup(rounds: int = 5) -> dict:
     commands = {
         "walk": [sys.executable, "-m", "mjregen", "walk", str(tripod), "--json", "--settle", "0",
                  "--duration", "0"],
-        "imports": [sys.executable, "-c", "import numpy, mujoco"],
+        "imports": [sys.executable, "-c", "import numpy, mujoco"],  # as the command does
         "python": [sys.executable, "-c", "pass"],
     }
     env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
     env["MUJOCO_GL"] = "disable"  # what mjregen walk sets for itself
+    env["OPENBLAS_NUM_THREADS"] = "1"  # and this
     out = {}
     for name, command in commands.items():
         samples = []
@@ -266,8 +267,9 @@ def performance_doc(report: dict, extra: dict, evolution: dict | None) -> str:
         f"- The paper's robots: **{_ratio_range(report, paper)}** of the engine's CPU time "
         f"per evaluation; robots without hard voxels: **{_ratio_range(report, others)}**.",
         f"- `mjregen walk ROBOT --json` as a fresh process, with nothing simulated: "
-        f"{start['walk']:.2f} CPU s, of which Python with numpy and mujoco imported costs "
-        f"{start['imports']:.2f} s ({start['python']:.2f} s for Python alone).",
+        f"{start['walk']:.2f} CPU s, of which Python with numpy (one BLAS thread, as the "
+        f"command sets it) and mujoco imported costs {start['imports']:.2f} s "
+        f"({start['python']:.2f} s for Python alone).",
     ]
     if evolution is not None:
         lines.append(
@@ -352,25 +354,35 @@ def performance_doc(report: dict, extra: dict, evolution: dict | None) -> str:
         "on a bond's force rows, half of it on its moments): a mode's damping grows with its "
         "frequency, the fastest mode is overdamped (ζ below), and its damping, not its "
         "stiffness, sets the limit. The engine steps 0.9 / (2π √(k/m)) of its stiffest "
-        "material whatever the network (its dampers take the rates of the last step).",
+        "material whatever the network. Its dampers take the rates of the last step, "
+        "(x_n − x_(n−1)) / h, which in its semi-implicit Euler step are the velocities "
+        "v_n that mjregen's dampers take: the same linear dynamics, so the same limit.",
         "",
-        "| robot | fastest mode ζ | undamped / damped limit | steps engine / mjregen |",
-        "|---|---|---|---|",
+        "| robot | fastest mode ζ | undamped / damped limit | steps engine / mjregen | "
+        "engine's step / the damped limit |",
+        "|---|---|---|---|---|",
     ]
+    safety = Physics().scene.timestep_safety
     for name, row in steps.items():
         if "zeta" not in row:
             continue
         engine = "" if row["engine_steps"] is None else f"{row['engine_steps']:,}"
+        edge = ("" if row["engine_steps"] is None else
+                f"{safety * row['steps'] / row['engine_steps']:.2f}")
         lines.append(f"| {DOC_ROBOTS.get(name, name)} | {row['zeta']:.2f} | "
-                     f"{row['damping_cost']:.2f} | {engine} / {row['steps']:,} |")
+                     f"{row['damping_cost']:.2f} | {engine} / {row['steps']:,} | {edge} |")
     lines += [
         "",
-        "On the paper's robots the two rules land near each other; on robots without hard "
-        "voxels the engine's rule takes the soft material's period, fewer steps than the "
-        "damped limit allows here, as it does on dense blocks with hard voxels (the networks' "
-        "stiffest topology). A longer step needs the dampers integrated otherwise (implicitly, "
-        "or on the last step's rates as the engine does): a change of integrator, to be judged "
-        "against the engine's recordings.",
+        "On dense blocks (the networks' stiffest topology, which the engine's rule is made "
+        "for) the engine steps at the damped limit itself: its 0.9 of the material's period "
+        "is the edge of stability, where mjregen keeps a margin (its step is "
+        f"{safety:g} of the limit; the largest stable fraction is about 1.1 on most robots, "
+        "docs/accuracy.md). On sparse robots such as the paper's its rule is conservative and "
+        "mjregen's network rule takes longer steps. Robots without hard voxels are dense "
+        "blocks of one soft material, where the engine's step is the limit's and mjregen's "
+        f"{safety:g} of it: that margin, not the cost of a step, is the ratio's remainder. A "
+        "longer step at the same accuracy needs another integrator for the overdamped modes "
+        "(their damping sets the limit), to be judged against the engine's recordings.",
     ]
     if evolution is not None:
         lines += [
