@@ -66,7 +66,7 @@ import mujoco
 import numpy as np
 
 from mjregen import physics as physics_module
-from mjregen.fitness import VOXEL_COST
+from mjregen.tasks.fitness import VOXEL_COST
 from mjregen.grid import Material, Robot
 from mjregen.physics import MujocoPipeline, Physics
 from mjregen.physics.compile import compile_robot
@@ -256,7 +256,7 @@ def paper_robot(name: str) -> Robot:
 
 
 def accuracy_robots() -> dict[str, Robot]:
-    return {"sheet_2d": sheet_2d(), "soft_block_5x5x5": block(5, Material.SOFT),
+    return {"sheet_2d": sheet_2d(), "soft_block_5x5x5": Robot.box((5,) * 3, Material.SOFT),
             "block_7x7x7": mixed_block(), "tripod": paper_robot("tripod"),
             "biped": paper_robot("biped"), "multiped": paper_robot("multiped")}
 
@@ -571,10 +571,6 @@ def muscle_strain(amplitude: float) -> dict:
     return materials
 
 
-def block(n: int, code: int) -> Robot:
-    return Robot.from_body(np.full((n, n, n), code, dtype=np.int8))
-
-
 @dataclass(frozen=True)
 class Case:
     name: str
@@ -597,7 +593,7 @@ def stability_cases(quick: bool = False) -> list[Case]:
                           Run(tripod, Physics(materials=scaled_hard(factor), scene=paper.scene,
                                               pipeline=paper.pipeline), **stiff)))
     cases.append(Case("hard block 4^3 E x1000",
-                      Run(block(4, 2), Physics(materials=scaled_hard(1000), scene=paper.scene,
+                      Run(Robot.box((4,) * 3, 2), Physics(materials=scaled_hard(1000), scene=paper.scene,
                                                pipeline=paper.pipeline), **stiff)))
     for amplitude, waveform in ((0.14, "contract"), (0.3, "contract"), (0.5, "contract"),
                                 (0.5, "symmetric")):
@@ -614,35 +610,35 @@ def stability_cases(quick: bool = False) -> list[Case]:
                           Run(tripod, paper.replace(bond_damping_ratio=zeta), **short)))
     for code in Material:
         if code != Material.EMPTY:
-            cases.append(Case(f"block 7^3 {code.name.lower()}", Run(block(7, code), paper,
+            cases.append(Case(f"block 7^3 {code.name.lower()}", Run(Robot.box((7,) * 3, code), paper,
                                                                     **short)))
     for code in (Material.SOFT, Material.HARD):
         cases.append(Case(f"single voxel {code.name.lower()}",
-                          Run(Robot.from_body(np.full((1, 1, 1), code, np.int8)), paper, **short)))
-    cases.append(Case("tower 1x1x7 hard", Run(Robot.from_body(np.full((1, 1, 7), 2, np.int8)),
+                          Run(Robot.box((1, 1, 1), code), paper, **short)))
+    cases.append(Case("tower 1x1x7 hard", Run(Robot.box((1, 1, 7), 2),
                                               paper, **short)))
     cases.append(Case("tower 1x1x7 muscle+ 50%", Run(
-        Robot.from_body(np.full((1, 1, 7), 3, np.int8)),
+        Robot.box((1, 1, 7), 3),
         Physics(materials=muscle_strain(0.5), scene=replace(paper.scene, waveform="symmetric"),
                 pipeline=paper.pipeline),
         **short)))
     cases.append(Case("cantilever 10 hard clamped", Run(
-        Robot.from_body(np.full((10, 1, 1), 2, np.int8)), paper, elevation=5e-3,
+        Robot.box((10, 1, 1), 2), paper, elevation=5e-3,
         clamped=((1, 1, 1),), **short)))
     cases.append(Case("cantilever 10 soft clamped", Run(
-        Robot.from_body(np.full((10, 1, 1), 1, np.int8)), paper, elevation=5e-3,
+        Robot.box((10, 1, 1), 1), paper, elevation=5e-3,
         clamped=((1, 1, 1),), **short)))
     cases.append(Case("tripod dropped 5 L", Run(tripod, paper, elevation=5e-3, **short)))
-    cases.append(Case("hard block 4^3 dropped 5 L", Run(block(4, 2), paper, elevation=5e-3,
+    cases.append(Case("hard block 4^3 dropped 5 L", Run(Robot.box((4,) * 3, 2), paper, elevation=5e-3,
                                                         **short)))
     cases.append(Case("muscle+ block 4^3 50% symmetric", Run(
-        block(4, 3), Physics(materials=muscle_strain(0.5),
+        Robot.box((4,) * 3, 3), Physics(materials=muscle_strain(0.5),
                              scene=replace(paper.scene, waveform="symmetric"),
                              pipeline=paper.pipeline), **short)))
     # resting blocks are symmetric and stay unexcited; kicked ones show the network's limit
     for code in (Material.SOFT, Material.HARD):
         cases.append(Case(f"block 4^3 {code.name.lower()} kicked 1 mm/s", Run(
-            block(4, code), paper, kick=1e-3, **short)))
+            Robot.box((4,) * 3, code), paper, kick=1e-3, **short)))
     cases.append(Case("mixed block 5^3 kicked 1 mm/s", Run(zeta_robot, paper, kick=1e-3,
                                                           **short)))
     cases.append(Case("biped", Run(paper_robot("biped"), paper, **short)))
@@ -821,7 +817,7 @@ def skip_cases() -> list[tuple[str, str, Robot, Physics, Robot, Physics, bool]]:
     soft_grid = multiped.grid.copy()
     soft_grid[soft_grid >= Material.MUSCLE_PLUS] = Material.SOFT
     small = Robot.from_body(np.array([[[1, 3], [4, 1]], [[3, 1], [1, 4]]], dtype=np.int8))
-    soft = block(7, Material.SOFT)
+    soft = Robot.box((7,) * 3, Material.SOFT)
     one_hard = soft.grid.copy()
     one_hard[tuple(np.argwhere(one_hard)[0])] = Material.HARD
     return [
@@ -929,7 +925,7 @@ def report_text(accuracy: list[dict], orders: list[dict], stability: list[dict],
             f"(to {float(c['converged_spread']):.2g}); differences of fitness below about "
             f"{max(error, float(c['safeties_max']) - float(c['safeties_min'])):.2g} voxel "
             "lengths between such robots are the time step's, not the robots'.")
-    from mjregen.reference import REFERENCE
+    from mjregen.physics.reference import REFERENCE
 
     fidelity_lines = ["| rule | " + " | ".join(c["robot"] for c in chaos) + " |",
                       "|---|" + "---|" * len(chaos)]

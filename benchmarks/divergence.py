@@ -27,7 +27,7 @@ from mjregen.grid import Robot
 from mjregen.physics import Physics
 from mjregen.physics.compile import compile_robot
 from mjregen.physics.simulation import simulation_of
-from mjregen.reference import ROBOT_FILES, load_csv
+from mjregen.physics.reference import ROBOT_FILES, load_csv
 
 ROOT = Path(__file__).resolve().parent.parent
 THRESHOLDS = (0.05, 0.5)  # voxel lengths

@@ -25,12 +25,12 @@ import time
 
 import numpy as np
 
-from mjregen.evolve import PRESETS
-from mjregen.locomotion import LocomotionTask
-from mjregen.nca import NCAConfig, random_genomes
-from mjregen.parallel import make_backend
+from mjregen.search.ga import PRESETS
+from mjregen.tasks.locomotion import LocomotionTask
+from mjregen.growth.nca import NCAConfig, random_genomes
+from mjregen.search.backends import make_backend
 from mjregen.physics import Physics
-from mjregen.runs import run_evolution
+from mjregen.search.runs import run_evolution
 
 
 def backends(args: argparse.Namespace) -> dict:

@@ -1,6 +1,6 @@
 """Fidelity: re-run the paper engine's reference cases in mjregen and compare.
 
-Runs every case of `mjregen.reference` with the chosen physics and prints a table
+Runs every case of `mjregen.physics.reference` with the chosen physics and prints a table
 (measure, reference, mjregen, ratio); `--json` writes the numbers.
 
     python benchmarks/fidelity.py [--preset default|paper|legacy|sphere]
@@ -19,7 +19,7 @@ earlier rules and taken back from today's, the per-voxel divergence, and overlay
 
 `--write-paths assets/reference` writes the engine's COM paths of the three paper robots
 (1 ms samples, from the recordings) to `engine_robot_paths.npz` there: the package's copy,
-which `mjregen.reference` compares paths and headings with.
+which `mjregen.physics.reference` compares paths and headings with.
 
 `--spread 0.5,0.55,...` instead walks each paper robot once per time-step safety (slightly
 different integrations of the same physics: the gaits are chaotic) and prints the
@@ -42,7 +42,7 @@ import numpy as np
 from mjregen.grid import Robot
 from mjregen.physics import Physics, legacy_physics, paper_physics, sphere_physics
 from mjregen.physics.compile import compile_robot
-from mjregen.reference import (CASES, ENGINE_PATHS, REFERENCE, ROBOT_FILES, CaseResult,
+from mjregen.physics.reference import (CASES, ENGINE_PATHS, REFERENCE, ROBOT_FILES, CaseResult,
                                load_csv)
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -368,7 +368,7 @@ def lone_voxel_rebounds() -> list[tuple[float, float]]:
     """(time step s, rebound / the engine's) of the dropped voxel at the default step, a
     quarter of it, and the engine's own step."""
     default = Physics()
-    dt = compile_robot(Robot.from_body(np.ones((1, 1, 1), dtype=np.int8)),
+    dt = compile_robot(Robot.box((1, 1, 1)),
                        physics=default).timestep
     out = []
     for step in (dt, dt / 4, ENGINE_LONE_VOXEL_STEP):

@@ -16,7 +16,7 @@ import time
 
 import torch
 
-from mjregen.nca import NCAConfig, grow, random_genomes
+from mjregen.growth.nca import NCAConfig, grow, random_genomes
 
 
 def _time(fn, repeats: int) -> dict[str, float]:

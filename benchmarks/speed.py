@@ -61,7 +61,7 @@ def robots() -> dict[str, Robot]:
     out = {}
     for name in ("tripod", "biped", "multiped"):
         out[f"paper_{name}"] = Robot.load(ROOT / "assets" / "robots" / "paper" / f"{name}.npy")
-    out["block_7x7x7_soft"] = Robot.from_body(np.ones((7, 7, 7), dtype=np.int8))
+    out["block_7x7x7_soft"] = Robot.box((7, 7, 7))
     out["block_7x7x7_muscle"] = Robot.from_body(
         rng.choice([1, 3, 4], size=(7, 7, 7)).astype(np.int8))
     slab = np.ones((7, 4, 4), dtype=np.int8)

@@ -9,7 +9,7 @@ from typing import Sequence
 import numpy as np
 
 from mjregen.fileio import atomic_open
-from mjregen.grid import Material
+from mjregen.grid import Material, Robot
 from mjregen.physics.mjcf import MATERIAL_RGBA
 
 
@@ -71,3 +71,23 @@ def growth_figure(states: np.ndarray, path: str | os.PathLike, *, overwrite: boo
     with atomic_open(path, overwrite=overwrite) as handle:
         figure.savefig(handle, format="png", dpi=100)
     return path
+
+
+def regrowth_figures(robots: dict[str, Robot], regrowth_states: np.ndarray,
+                     folder: str | os.PathLike) -> list[Path]:
+    """A regrowth run's pictures in `folder` (replaced if present): ``robots.png`` (the
+    original, damaged and regrown robots) and ``regrowth.png`` (the regrowth's steps).
+
+    Args:
+      robots: {role: robot}, e.g. `mjregen.experiments.regrowth.RegrowthRun.robots`.
+      regrowth_states: int ``(T, ...)`` grids of the regrowth's steps, e.g.
+        ``run.regrowth.states[0]``.
+    """
+    folder = Path(folder)
+    steps = growth_figure(regrowth_states, folder / "regrowth.png", overwrite=True,
+                          titles=[f"regrowth step {i}" for i in range(len(regrowth_states))])
+    trio = growth_figure(np.stack([robot.grid for robot in robots.values()]),
+                         folder / "robots.png", overwrite=True,
+                         titles=[f"{role}: {robot.n_voxels} voxels"
+                                 for role, robot in robots.items()])
+    return [trio, steps]

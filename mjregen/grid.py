@@ -169,6 +169,12 @@ class Robot:
             )
         return cls(np.pad(array, 1))
 
+    @classmethod
+    def box(cls, shape: tuple[int, ...], material: int = Material.SOFT) -> Robot:
+        """A solid box of one material (a `Material` code, default soft), `shape` voxels
+        per axis (``(x, y, z)`` or ``(x, z)``), with the empty border around it."""
+        return cls.from_body(np.full(shape, int(material), dtype=np.int8))
+
     @property
     def grid(self) -> np.ndarray:
         """Read-only int8 array ``(X, Y, Z)`` or ``(X, Z)``."""

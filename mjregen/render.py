@@ -42,11 +42,12 @@ from mjregen.errors import MjregenError, OutputExistsError
 from mjregen.figures import MATERIAL_RGBA
 from mjregen.fileio import atomic_open
 from mjregen.gl import BACKENDS, HEADLESS_BACKENDS, INSTALL_HINT, missing_library
-from mjregen.grid import Material
+from mjregen.grid import Material, Robot
 
 if TYPE_CHECKING:
     import mujoco
 
+    from mjregen.physics import Physics
     from mjregen.physics.compile import CompiledRobot
 
 _log = logging.getLogger(__name__)
@@ -487,3 +488,25 @@ def write_frames(compiled: CompiledRobot, qpos: np.ndarray, folder: str | os.Pat
     for stale in set(folder.glob("frame_*.png")) - set(paths):  # an earlier, longer render
         stale.unlink()
     return paths
+
+
+def walk_videos(robots: dict[str, Robot], folder: str | os.PathLike, *,
+                physics: Physics | None = None, duration: float | None = None,
+                progress: bool = True) -> list[Path]:
+    """``<role>.mp4`` in `folder` (replaced if present) of each non-empty robot's walk.
+
+    Args:
+      robots: {role: robot}, e.g. the original, damaged and regrown robots of a regrowth.
+      physics: None = the default; duration: s of walking (None = the scene's).
+    """
+    from mjregen.physics.compile import compile_robot
+
+    written = []
+    for role, robot in robots.items():
+        if robot.is_empty:
+            continue
+        compiled = compile_robot(robot, physics=physics)
+        walk = record_walk(compiled, duration=duration)
+        written.append(write_video(compiled, walk.qpos, Path(folder) / f"{role}.mp4",
+                                   overwrite=True, progress=progress))
+    return written

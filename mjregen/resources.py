@@ -8,6 +8,8 @@ from pathlib import Path
 
 from mjregen.errors import MjregenError
 
+PAPER_ROBOTS = ("biped", "tripod", "multiped")  # the paper's evolved robots, assets/robots/paper
+
 
 def asset(*parts: str) -> Path:
     """Path of a shipped file, e.g. ``asset("robots", "paper", "tripod.npy")``.

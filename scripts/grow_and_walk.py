@@ -78,8 +78,8 @@ def _load_source(args: argparse.Namespace) -> tuple[Robot, np.ndarray | None, st
         robot = Robot.load(args.robot)
         _check_dim(args.dim, robot.dim, args.robot)
         return robot, None, f"robot file {args.robot}", Physics()
-    from mjregen.checkpoint import load_nca  # torch: only when growing
-    from mjregen.nca import NCA, NCAConfig
+    from mjregen.growth.checkpoint import load_nca  # torch: only when growing
+    from mjregen.growth.nca import NCA, NCAConfig
 
     physics = Physics()
     if args.seed is not None:
@@ -141,7 +141,7 @@ def run(args: argparse.Namespace) -> dict:
         print(f"rendering with MUJOCO_GL={select_gl_backend()}")
 
     from mjregen.figures import growth_figure
-    from mjregen.fitness import locomotion_fitness
+    from mjregen.tasks.fitness import locomotion_fitness
     from mjregen.physics.compile import compile_robot
     from mjregen.physics.simulation import simulate
     from mjregen.render import record_walk, write_video

@@ -11,7 +11,7 @@ on two cores); ``--scale smoke`` takes seconds. --pop/--gens/--runs override the
 
 Everything is resumable: run the same command again after a kill and every run continues
 where it stopped (finished runs are left alone). Run folders: runs/results/<condition>/seed_<n>
-and runs/results/regen_<walker>_<net>/seed_<n> (`mjregen.experiments`). --dry-run prints the
+and runs/results/regen_<walker>_<net>/seed_<n> (`mjregen.experiments.paper`). --dry-run prints the
 equivalent `mjregen` commands and the amount of work without running anything.
 
 Examples:
@@ -32,10 +32,11 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
-from mjregen import experiments as ex
-from mjregen import walkers as wk
+from mjregen.experiments import paper as ex
+from mjregen.experiments import walkers as wk
 from mjregen.errors import MjregenError
-from mjregen.runs import RunFolderError
+from mjregen.figures import regrowth_figures
+from mjregen.search.runs import RunFolderError
 
 STAGES = tuple(ex.CONDITIONS) + ("regen",)
 
@@ -105,7 +106,7 @@ def describe(args: argparse.Namespace, jobs: list[ex.EvolutionJob], regen: bool)
                               args.regen_gens or scale.regen_generations)
             nets = args.regen_net or scale.regen_nets or ["the walker's own"]
             lines.append(f"# regrowth: after the 3D evolutions, three walkers are picked into "
-                         f"{walkers.parent} (mjregen.walkers.pick_walkers), then per walker "
+                         f"{walkers.parent} (mjregen.experiments.walkers.pick_walkers), then per walker "
                          f"and network ({', '.join(nets)}):")
             lines.append(f"mjregen regen --checkpoint {walkers.parent}/walker_<i>.npz --net <net> "
                          f"--pop {ga.population} --gens {ga.generations} --truncation "
@@ -137,8 +138,9 @@ def run(args: argparse.Namespace) -> int:
                                  generations=args.regen_gens,
                                  nets=tuple(args.regen_net) if args.regen_net else None):
             print(job.command(), flush=True)
-            if ex.run_regen_job(job, progress=not args.quiet) != 0:
-                raise MjregenError(f"regrowth run {job.out} failed")
+            run = ex.run_regen_job(job, progress=not args.quiet)
+            if run is not None:
+                regrowth_figures(run.robots, run.regrowth.states[0], job.out)
     print(f"done in {time.perf_counter() - start:.0f} s; next: python scripts/ship_assets.py "
           f"--root {args.root} --best --walkers && python scripts/results_report.py --root {args.root}")
     return 0

@@ -6,7 +6,7 @@ Reads the evolution runs under --root (runs/results/<condition>/seed_<n>), the r
 (assets/nca/manifest.json, assets/robots/walkers/walkers.json), and writes:
 
   fitness_2d.png, fitness_3d.png   mean best fitness over runs with bootstrapped 95 % CIs,
-                                   feed-forward vs LSTM (`mjregen.stats`)
+                                   feed-forward vs LSTM (`mjregen.search.stats`)
   growth_<asset>.png               growth sequence of every shipped NCA
   gallery_<asset>.png              one rendered frame of every shipped robot (headless)
   results.md                       settings vs the paper, curves, tables, the regrowth table
@@ -37,7 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mjregen import experiments as ex
+from mjregen.experiments import paper as ex
 from mjregen.errors import MjregenError
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -107,7 +107,7 @@ def _rel(path: Path, start: Path) -> str:
 
 
 def _best_distance(run: ex.RunInfo) -> float:
-    from mjregen.checkpoint import load_nca
+    from mjregen.growth.checkpoint import load_nca
 
     npz = run.best_files()[0]
     if not npz.is_file():
@@ -220,7 +220,7 @@ class Report:
                  "and elites keep the paper's share of the population (20 %; 2D: one elite).", "")
 
     def curves(self) -> None:
-        from mjregen.stats import bootstrap_curves, plot_groups
+        from mjregen.search.stats import bootstrap_curves, plot_groups
 
         self.add("## Fitness over generations", "",
                  "Mean over runs of each run's best fitness per generation, shaded: bootstrapped "
@@ -274,7 +274,7 @@ class Report:
 
     def shipped(self) -> list[tuple[str, Path, Path | None]]:
         """Shipped NCAs: table and growth figures; returns (name, robot file, nca file) to draw."""
-        from mjregen.checkpoint import load_nca
+        from mjregen.growth.checkpoint import load_nca
         from mjregen.figures import growth_figure
 
         manifest_path = self.args.assets / "nca" / "manifest.json"
@@ -416,9 +416,9 @@ class Report:
     def paper_robot_regrowth(self) -> None:
         """Rows for the paper's own robots regrown by the shipped regrowth NCAs
         (assets/regen/<robot>_<net>.npz), simulated now with today's default physics."""
-        from mjregen.checkpoint import load_nca
+        from mjregen.growth.checkpoint import load_nca
         from mjregen.grid import Robot
-        from mjregen.recovery import measure_recovery, regrowth_robots
+        from mjregen.experiments.recovery import measure_recovery, regrowth_robots
 
         shipped = sorted(path for path in (self.args.assets / "regen").glob("*.npz")
                          if (PAPER_ROBOTS / f"{path.stem.split('_')[0]}.npy").is_file())

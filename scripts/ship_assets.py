@@ -12,7 +12,7 @@ mjregen/torch/mujoco/numpy, git commit and sha256 of both files. tests/test_asse
 checks every such entry by growing and simulating again.
 
 --walkers: the three diverse 3D walkers of the regrowth experiment
-(`mjregen.walkers.load_or_pick_walkers`: picked once into <root>/walkers, see DIVERSITY
+(`mjregen.experiments.walkers.load_or_pick_walkers`: picked once into <root>/walkers, see DIVERSITY
 there) copied to assets/robots/walkers/walker_<i>.{npz,npy} with walkers.json, each
 re-measured like the NCAs and with its regrowth recovery when <root> has one.
 
@@ -39,8 +39,8 @@ from pathlib import Path
 
 import numpy as np
 
-from mjregen import experiments as ex
-from mjregen import walkers as wk
+from mjregen.experiments import paper as ex
+from mjregen.experiments import walkers as wk
 from mjregen.errors import MjregenError
 from mjregen.fileio import atomic_open
 from mjregen.grid import Material, Robot
@@ -95,8 +95,8 @@ def measure(npz: Path, run_config: dict, expected_robot: Path | None = None) -> 
       MjregenError: the run's config has no physics description, or the grown robot differs
         from `expected_robot` (the run's own .npy).
     """
-    from mjregen.checkpoint import load_nca
-    from mjregen.fitness import locomotion_fitness
+    from mjregen.growth.checkpoint import load_nca
+    from mjregen.tasks.fitness import locomotion_fitness
     from mjregen.physics import Physics
     from mjregen.physics.simulation import simulate
 

@@ -38,7 +38,7 @@ def CANTILEVER_RUN(dt: float, integrator: str) -> Run:
     Tendon bonds and Stokes drag: Euler steps them in the voxel plugin, RK4 as MuJoCo's
     tendons and viscosity, the same ODE (tests/test_native.py; beams differ from tendons by
     a third of Euler's error)."""
-    robot = Robot.from_body(np.full((3, 1, 1), Material.HARD, dtype=np.int8))
+    robot = Robot.box((3, 1, 1), Material.HARD)
     return Run(robot, Physics().replace(floor=False, bond_element="tendons", drag_law="stokes"),
                settle=0.004, measured=0.0, dt=dt, integrator=integrator, clamped=((1, 1, 1),))
 
@@ -98,10 +98,6 @@ def test_muscle_drive_sampled_per_step_limits_rk4_to_first_order():
     assert abs(observed["rk4-mid"] - 2) < 0.5, observed
 
 
-def block(n: int, code: int) -> Robot:
-    return Robot.from_body(np.full((n, n, n), code, dtype=np.int8))
-
-
 def scaled_hard(factor: float) -> dict:
     materials = dict(Physics().materials)
     hard = materials[Material.HARD]
@@ -117,23 +113,23 @@ def strain(amplitude: float) -> dict:
 
 
 EXTREME_CASES = {
-    "hard block 3^3, E x1000": lambda: Run(block(3, Material.HARD),
+    "hard block 3^3, E x1000": lambda: Run(Robot.box((3,) * 3, Material.HARD),
                                            Physics(materials=scaled_hard(1000)),
                                            settle=0.002, measured=0.001),
-    "hard block 4^3, dropped from 5 L": lambda: Run(block(4, Material.HARD), Physics(),
+    "hard block 4^3, dropped from 5 L": lambda: Run(Robot.box((4,) * 3, Material.HARD), Physics(),
                                                     settle=0.03, measured=0.0, elevation=5e-3),
-    "single hard voxel": lambda: Run(Robot.from_body(np.full((1, 1, 1), 2, np.int8)),
+    "single hard voxel": lambda: Run(Robot.box((1, 1, 1), 2),
                                      Physics(), settle=0.02, measured=0.0),
-    "hard tower 1x1x6": lambda: Run(Robot.from_body(np.full((1, 1, 6), 2, np.int8)),
+    "hard tower 1x1x6": lambda: Run(Robot.box((1, 1, 6), 2),
                                     Physics(), settle=0.02, measured=0.0),
     "hard cantilever 8, clamped": lambda: Run(
-        Robot.from_body(np.full((8, 1, 1), 2, np.int8)), Physics(), settle=0.02,
+        Robot.box((8, 1, 1), 2), Physics(), settle=0.02,
         measured=0.0, elevation=5e-3, clamped=((1, 1, 1),)),
     "muscle block 3^3 in phase, ±50 %": lambda: Run(
-        block(3, Material.MUSCLE_PLUS),
+        Robot.box((3,) * 3, Material.MUSCLE_PLUS),
         Physics(materials=strain(0.5)).replace(waveform="symmetric"),
         settle=0.005, measured=0.03),
-    "soft block 4^3, zeta 0.05": lambda: Run(block(4, Material.SOFT),
+    "soft block 4^3, zeta 0.05": lambda: Run(Robot.box((4,) * 3, Material.SOFT),
                                              Physics().replace(bond_damping_ratio=0.05),
                                              settle=0.02, measured=0.0),
 }
@@ -149,7 +145,7 @@ def heavily_damped_block(safety: float | None = None) -> Run:
     physics = Physics().replace(bond_damping_ratio=2.0)
     if safety is not None:
         physics = physics.replace(timestep_safety=safety)
-    return Run(block(4, Material.SOFT), physics, settle=0.03, measured=0.0)
+    return Run(Robot.box((4,) * 3, Material.SOFT), physics, settle=0.03, measured=0.0)
 
 
 @pytest.mark.parametrize("bond_model", ["euler_bernoulli", "timoshenko"])
@@ -164,7 +160,7 @@ def test_time_step_rule_puts_the_limit_at_safety_one(bond_model, zeta):
         physics = Physics().replace(bond_damping_ratio=zeta, bond_model=bond_model,
                                     timestep_safety=safety, timestep_rule="stiffest_bond",
                                     beam_law="tendons", beam_damping="stiffness_proportional")
-        return evaluate(Run(block(4, Material.SOFT), physics, settle=0.03, measured=0.0,
+        return evaluate(Run(Robot.box((4,) * 3, Material.SOFT), physics, settle=0.03, measured=0.0,
                             kick=1e-3))["stable"]
 
     assert run(1.0)
@@ -192,7 +188,7 @@ def test_stability_search_finds_the_damped_block_limit():
 def test_perturbed_start_shifts_only_the_positions_by_the_given_size():
     """`Run.perturb`: every voxel's initial centre moves by normal amounts of the given size
     (voxel lengths), its orientation stays; the same seed, the same shift."""
-    robot = Robot.from_body(np.ones((4, 4, 4), dtype=np.int8))
+    robot = Robot.box((4, 4, 4))
     compiled = compile_robot(robot)
     shifted = []
     for seed in (1, 1, 2):

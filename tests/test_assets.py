@@ -16,8 +16,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mjregen.checkpoint import load_nca
-from mjregen.fitness import locomotion_fitness
+from mjregen.growth.checkpoint import load_nca
+from mjregen.tasks.fitness import locomotion_fitness
 from mjregen.grid import Material, Robot
 from mjregen.physics import Physics, Scene, VoxelPipeline, migrate_physics
 from mjregen.physics.migrate import PHYSICS_FORMAT

@@ -106,7 +106,7 @@ def test_axial_law_is_the_tendon_bundles(dim, strain):
     """beam_law "tendons": stretched or compressed far beyond the linear range (a muscle's
     14 %), a two-voxel bar pulls back with its tendons' force, which stiffens in tension and
     softens in compression (3D: +10 % at +10 %, −14 % at −14 % against E·L·strain)."""
-    robot = Robot.from_body(np.ones((2, 1, 1) if dim == 3 else (2, 1), dtype=np.int8))
+    robot = Robot.box((2, 1, 1) if dim == 3 else (2, 1))
     model = plugin_model(robot)
     qpos = model.qpos0.copy()
     qpos[model.nq // 2] += strain * 1e-3  # second voxel's x
@@ -221,7 +221,7 @@ def test_twist_moment_is_linear_in_the_angle_beyond_small_bends():
     motion): the bond's only load is the torsion moment k_t θ (the rotation vector of
     q_i⁻¹ q_j is exact at any angle), equal and opposite on the two voxels. Past 35° the
     plugin leaves its series (accurate to 1e-7 below) for asin."""
-    robot = Robot.from_body(np.ones((2, 1, 1), dtype=np.int8))
+    robot = Robot.box((2, 1, 1))
     model = plugin_model(robot)
     angles = np.array([0.1, 0.4, 0.6, 0.62, 0.9, 1.5, 2.5])  # rad; 2 asin(0.3) = 0.609
     ratios = []
@@ -239,7 +239,7 @@ def test_twist_moment_is_linear_in_the_angle_beyond_small_bends():
 
 
 def two_voxels() -> tuple[Robot, mujoco.MjModel]:
-    robot = Robot.from_body(np.ones((2, 1, 1), dtype=np.int8))
+    robot = Robot.box((2, 1, 1))
     return robot, plugin_model(robot)
 
 

@@ -8,10 +8,10 @@ import sys
 import numpy as np
 import pytest
 
-from mjregen.checkpoint import save_nca
+from mjregen.growth.checkpoint import save_nca
 from mjregen.cli import main
 from mjregen.grid import Robot
-from mjregen.nca import NCA, NCAConfig
+from mjregen.growth.nca import NCA, NCAConfig
 
 
 def test_grow_random_nca_json_matches_the_library(tmp_path, capsys):
@@ -82,7 +82,7 @@ WALKER = "assets/robots/bimorph_walker_3d.npy"
 
 
 def test_walk_json_equals_simulate(tmp_path, capsys):
-    from mjregen.fitness import locomotion_fitness
+    from mjregen.tasks.fitness import locomotion_fitness
     from mjregen.physics import Physics
     from mjregen.physics.simulation import simulate
 

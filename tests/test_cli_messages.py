@@ -11,7 +11,7 @@ import pytest
 
 from mjregen.cli import main
 from mjregen.grid import Robot
-from mjregen.recovery import RecoveryReport
+from mjregen.experiments.recovery import RecoveryReport
 
 EMPTY_3D = np.zeros((9, 9, 9), dtype=np.int8)
 BLOCK = np.pad(np.ones((2, 2, 2), dtype=np.int8), 1)

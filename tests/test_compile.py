@@ -38,7 +38,7 @@ def config(compiled) -> dict:
 
 
 def test_3d_structure_body_per_voxel_free_joint_8_tendons_per_bond():
-    robot = Robot.from_body(np.ones((3, 2, 2), dtype=np.int8))  # 12 voxels, 20 bonds
+    robot = Robot.box((3, 2, 2))  # 12 voxels, 20 bonds
     compiled = compile_robot(robot, physics=Physics().replace(collision_radius=0.0))
     model = compiled.model
     assert compiled.pipeline == "voxel" and compiled.plugin_instance == 0
@@ -70,7 +70,7 @@ def test_voxel_pipeline_computes_floor_collision_and_drag_in_the_plugin():
     no contact geoms, no pairs, no viscosity, MuJoCo's contact stages off, and a stick flag
     per voxel in its plugin state. The pure-MuJoCo pipeline has MuJoCo's equivalents (point
     contacts, collision spheres, viscosity), the linear drag of the same size."""
-    robot = Robot.from_body(np.ones((3, 3, 3), dtype=np.int8))  # 26 surface voxels + 1
+    robot = Robot.box((3, 3, 3))  # 26 surface voxels + 1
     compiled = compile_robot(robot)
     model, values = compiled.model, config(compiled)
     assert model.npair == 0 and model.npluginstate == 27
@@ -112,7 +112,7 @@ def test_geoms_carry_their_voxels_materials():
 
 
 def test_2d_structure_slide_slide_hinge_4_tendons_per_bond():
-    robot = Robot.from_body(np.ones((3, 2), dtype=np.int8))  # 6 voxels, 7 bonds
+    robot = Robot.box((3, 2))  # 6 voxels, 7 bonds
     compiled = compile_robot(robot)
     model = compiled.model
     assert model.njnt == 3 * 6 and model.nv == 3 * 6
@@ -171,7 +171,7 @@ def test_timestep_from_stiffest_bond_present():
     assert soft.timestep == pytest.approx(0.118271 / math.sqrt(1e7), rel=1e-4)
     assert hard.timestep == pytest.approx(soft.timestep / math.sqrt(5), rel=1e-4)
     assert lone.timestep == pytest.approx(soft.timestep, rel=1e-5)
-    default = compile_robot(Robot.from_body(np.ones((2, 1, 1), dtype=np.int8)),
+    default = compile_robot(Robot.box((2, 1, 1)),
                             physics=limit.replace(timestep_safety=0.75))
     assert default.timestep == pytest.approx(0.75 * soft.timestep, rel=1e-5)
 
@@ -203,7 +203,7 @@ def test_default_timestep_is_075_of_the_networks_euler_limit(damping):
     mu = max(largest(inv_mass @ rows @ bond), 2.0 * beta * w2,
              largest(inv_mass @ (rows @ bond + floor_c)))
     limit = (math.sqrt(mu * mu + 4.0 * lam) - mu) / lam
-    default = compile_robot(Robot.from_body(np.ones((2, 1, 1), dtype=np.int8)),
+    default = compile_robot(Robot.box((2, 1, 1)),
                             physics=physics)
     exact = damping == "stiffness_proportional"
     assert default.timestep == pytest.approx(0.75 * limit, rel=1e-5 if exact else 0.03)
@@ -229,7 +229,7 @@ def test_muscle_tendons_come_first_and_cover_exactly_the_muscle_bonds():
 def test_bad_input_raises_clear_errors():
     with pytest.raises(CompileError, match="empty"):
         compile_robot(Robot(np.zeros((5, 5, 5), dtype=np.int8)))
-    robot = Robot.from_body(np.ones((2, 1, 1), dtype=np.int8))
+    robot = Robot.box((2, 1, 1))
     with pytest.raises(CompileError, match="not a voxel"):
         compile_robot(robot, clamped=[(0, 0, 0)])
     with pytest.raises(CompileError, match="elevation"):

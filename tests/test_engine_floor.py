@@ -25,7 +25,7 @@ NO_DRAG = Physics().replace(drag_ratio=0.0, settle_time=0.0)
 
 
 def voxel(code: int = 1, physics: Physics = NO_DRAG):
-    compiled = compile_robot(Robot.from_body(np.full((1, 1, 1), code, dtype=np.int8)),
+    compiled = compile_robot(Robot.box((1, 1, 1), code),
                              physics=physics)
     return compiled, simulation_of(compiled)
 
@@ -154,7 +154,7 @@ def test_engine_floor_is_stepped_with_euler_and_needs_a_penalty_stiffness():
     with pytest.raises(PhysicsParameterError, match="integrator: not a field of the scene "
                                                     "or of the voxel pipeline"):
         Physics().replace(integrator="rk4")
-    assert compile_robot(Robot.from_body(np.ones((1, 1, 1), np.int8))).model.opt.integrator \
+    assert compile_robot(Robot.box((1, 1, 1))).model.opt.integrator \
         == mujoco.mjtIntegrator.mjINT_EULER
     with pytest.raises(PhysicsParameterError, match="floor_stiffness"):
         Physics().replace(floor_stiffness=None)

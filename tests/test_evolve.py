@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from mjregen.evolve import PRESETS, GAConfig, GeneticAlgorithm
+from mjregen.search.ga import PRESETS, GAConfig, GeneticAlgorithm
 
 
 def nearest(children: np.ndarray, candidates: np.ndarray) -> np.ndarray:

@@ -8,17 +8,18 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mjregen import experiments as ex
-from mjregen import walkers as wk
-from mjregen.checkpoint import load_nca, save_nca
+from mjregen.experiments import paper as ex
+from mjregen.experiments import walkers as wk
+from mjregen.growth.checkpoint import load_nca, save_nca
 from mjregen.cli import main as mjregen_main
-from mjregen.evolve import PRESETS
-from mjregen.fitness import locomotion_fitness
+from mjregen.search.ga import PRESETS
+from mjregen.tasks.fitness import locomotion_fitness
 from mjregen.grid import Robot
-from mjregen.nca import NCA, NCAConfig, grow
+from mjregen.growth.nca import NCA, NCAConfig, grow
 from mjregen.physics import Physics
 from mjregen.physics.simulation import simulate
-from mjregen.runs import METRICS, RunFolderError
+from mjregen.search.runs import METRICS, RunFolderError
+from mjregen.tasks.locomotion import LocomotionTask
 
 SCRIPTS = Path(__file__).resolve().parents[1] / "scripts"
 SMOKE = ex.SCALES["smoke"]
@@ -77,14 +78,14 @@ def test_tiny_run_resumes_and_matches_its_printed_command(tmp_path):
             raise Killed
 
     # kill after generation 0 (through run_evolution's hook), then resume with the job
-    from mjregen.locomotion import LocomotionTask
-    from mjregen.parallel import SerialBackend
-    from mjregen.runs import run_evolution
+    from mjregen.tasks.locomotion import LocomotionTask
+    from mjregen.search.backends import SerialBackend
+    from mjregen.search.runs import run_evolution
 
     task = LocomotionTask(nca=job.condition.nca, physics=job.physics, duration=job.duration)
     with pytest.raises(Killed):
         run_evolution(task, job.ga, seed=job.seed, out=job.out, backend=SerialBackend(),
-                      task_config=ex.task_config(task.nca, task.physics, task.duration),
+                      task_config=task.to_config(),
                       progress=False, on_generation=kill)
     assert ex.read_run(job.out).generations_done == 1
     resumed = ex.run_evolution_job(job, progress=False)
@@ -126,7 +127,7 @@ def results(tmp_path_factory) -> Path:
         physics = SMOKE.physics(3)
         (run / "config.json").write_text(json.dumps({
             "format": "mjregen-run-1", "seed": seed, "ga": ex.scaled_ga(PRESETS["3d"], 4, 2).to_dict(),
-            "task": ex.task_config(config, physics, SMOKE.duration(3))}))
+            "task": LocomotionTask(config, physics, SMOKE.duration(3)).to_config()}))
         rows = []
         for generation, i in enumerate(picks):
             result = simulate(grids[i], physics=physics, duration=SMOKE.duration(3))
@@ -141,7 +142,7 @@ def results(tmp_path_factory) -> Path:
             handle.write(",".join(METRICS) + "\n")
             handle.writelines(",".join(str(r[k]) for k in METRICS) + "\n" for r in rows)
     job, = ex.regen_jobs(SMOKE, wk.load_or_pick_walkers(root)[:1], root=root)
-    assert ex.run_regen_job(job, progress=False) == 0  # regrowth of the first walker
+    assert ex.run_regen_job(job, progress=False) is not None  # regrowth of the first walker
     return root
 
 
@@ -163,7 +164,7 @@ def test_regrowth_job_writes_recovery(results):
     job, = ex.regen_jobs(SMOKE, walkers[:1], root=results)
     assert job.net == "ff" and job.out == results / "regen_walker_1_ff" / "seed_0"
     assert job.complete  # run by the fixture; running it again is a no-op
-    assert ex.run_regen_job(job, progress=False) == 0
+    assert ex.run_regen_job(job, progress=False) is None  # finished: left alone
     report = json.loads((job.out / "recovery.json").read_text())
     assert report["grid_cells"] == 729 and job.complete
     assert ex.list_regen_runs(results) == [("walker_1", "ff", job.out)]

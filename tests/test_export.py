@@ -144,7 +144,7 @@ def com_z(model: mujoco.MjModel, data: mujoco.MjData) -> float:
 def test_exported_block_falls_on_the_parabola():
     """Before touching the floor (drag off), semi-implicit Euler's free fall
     z₀ − g h² n(n+1)/2 exactly (to rounding), which is the parabola to within g·h·t."""
-    model = plain_model(Robot.from_body(np.ones((2, 2, 2), np.int8)),
+    model = plain_model(Robot.box((2, 2, 2)),
                         Physics().replace(drag_ratio=0.0), elevation=5 * L)
     data = mujoco.MjData(model)
     z0, h = com_z(model, data), model.opt.timestep
@@ -159,7 +159,7 @@ def test_exported_block_falls_on_the_parabola():
 def test_exported_block_rests_on_the_floor_without_sinking():
     """A 3³ soft block settles on the engine floor: its bottom centres sit at L/2 less the
     floor spring's compression under a column's weight (3 m g / 2 E L), and it is still."""
-    robot = Robot.from_body(np.ones((3, 3, 3), np.int8))
+    robot = Robot.box((3, 3, 3))
     model = plain_model(robot)
     data = mujoco.MjData(model)
     mujoco.mj_step(model, data, nstep=round(0.3 / model.opt.timestep))
@@ -197,7 +197,7 @@ def test_exported_hard_cantilever_sags_like_a_beam():
 def test_exported_file_refuses_other_integrators_and_bad_configuration():
     """The plugin's state and muscles advance per Euler step: an edited integrator is an
     error naming the cause, and so is a configuration number that does not parse."""
-    xml = compile_robot(Robot.from_body(np.ones((2, 2, 2), np.int8))).to_xml()
+    xml = compile_robot(Robot.box((2, 2, 2))).to_xml()
     with pytest.raises(ValueError, match="integrator must be Euler"):
         mujoco.MjData(mujoco.MjModel.from_xml_string(
             xml.replace("<option ", '<option integrator="RK4" ')))

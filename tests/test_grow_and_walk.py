@@ -11,8 +11,8 @@ import mujoco
 import numpy as np
 import pytest
 
-from mjregen.checkpoint import load_nca
-from mjregen.fitness import locomotion_fitness
+from mjregen.growth.checkpoint import load_nca
+from mjregen.tasks.fitness import locomotion_fitness
 from mjregen.grid import Material, Robot
 from mjregen.physics import Physics
 from mjregen.physics.compile import compile_robot

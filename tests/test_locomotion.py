@@ -4,17 +4,17 @@ diverging and raising evaluations are contained."""
 import numpy as np
 import pytest
 
-import mjregen.locomotion as locomotion
-from mjregen.evaluation import HARD_STEP_COST, expected_cost
-from mjregen.fitness import (
+import mjregen.tasks.locomotion as locomotion
+from mjregen.tasks.evaluation import HARD_STEP_COST, expected_cost
+from mjregen.tasks.fitness import (
     EMPTY_FITNESS,
     UNSTABLE_FITNESS,
     VOXEL_COST,
     locomotion_fitness,
 )
 from mjregen.grid import Material
-from mjregen.nca import NCAConfig, grow, random_genomes
-from mjregen.parallel import ProcessBackend, SerialBackend, ThreadBackend, make_backend
+from mjregen.growth.nca import NCAConfig, grow, random_genomes
+from mjregen.search.backends import ProcessBackend, SerialBackend, ThreadBackend, make_backend
 from mjregen.physics import Physics
 from mjregen.physics.simulation import simulate
 

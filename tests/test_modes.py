@@ -50,7 +50,7 @@ def test_two_voxels_fastest_mode_is_the_beam_theory_one(bond_model, element):
     for symmetric operators) is within 3 % of these (engine damping is not symmetric)."""
     physics = NETWORK.replace(bond_model=bond_model, bond_element=element, floor=False)
     hard = physics.materials[Material.HARD]
-    robot = Robot.from_body(np.full((2, 1, 1), Material.HARD, np.int8))
+    robot = Robot.box((2, 1, 1), Material.HARD)
     k_over_m = hard.youngs_modulus * physics.scene.voxel_size / physics.voxel_mass(Material.HARD)
     expected = 5.0 * k_over_m if bond_model == "euler_bernoulli" else 2.0 * k_over_m
     stiffness, damping = _rates(robot, physics)
@@ -84,7 +84,7 @@ def test_network_step_is_where_a_kicked_block_diverges():
     """A hard 3³ block, every voxel kicked: stable at 0.95 of the network's limit, diverges
     at 1.05 of it (the limit is neither loose nor unsafe; measured: stable at 1.0, diverges
     at 1.02, also for 4³, a two-voxel bar and a soft five-voxel rod)."""
-    robot = Robot.from_body(np.full((3, 3, 3), Material.HARD, np.int8))
+    robot = Robot.box((3, 3, 3), Material.HARD)
     outcomes = {}
     for safety in (0.95, 1.05):
         physics = NETWORK.replace(timestep_safety=safety, floor=False, gravity=0.0)
@@ -100,7 +100,7 @@ def test_lengthening_muscles_stiffen_their_bonds_contracting_ones_do_not():
     the two-voxel shear mode by (2 + 3x²)/5: a ±14 % muscle bar (x = 1.14) by the larger of
     the two (1.18); the engine's linear axial spring does not stiffen, so there only the
     shear mode does."""
-    robot = Robot.from_body(np.full((2, 1, 1), Material.MUSCLE_PLUS, np.int8))
+    robot = Robot.box((2, 1, 1), Material.MUSCLE_PLUS)
     physics = Physics().replace(beam_law="tendons")
     beams = compile_robot(robot, physics=physics).beams
     assert beams.axial_law[0, 2] == pytest.approx(2e-6)  # m², D² = 2 L²
@@ -132,7 +132,7 @@ def test_network_rule_fits_the_step_to_the_robot():
     one: the rule is conservative for them); the paper's biped (hard voxels in thin legs)
     gets a longer one; a pure-MuJoCo build takes the step of the voxel plugin's tendons
     (without a floor: MuJoCo's contacts are not in the network)."""
-    block = Robot.from_body(np.full((4, 4, 4), Material.HARD, np.int8))
+    block = Robot.box((4, 4, 4), Material.HARD)
     biped = Robot.load("assets/robots/paper/biped.npy")
     tendon_law = {"beam_law": "tendons", "beam_damping": "stiffness_proportional",
                   "bond_damping_ratio": 0.4}
@@ -164,7 +164,7 @@ def test_without_a_compiler_the_network_rule_says_so_and_the_mujoco_presets_stil
     monkeypatch.setattr(native, "_library", None)
     monkeypatch.setattr(native, "library_path", lambda: tmp_path / "missing.so")
     monkeypatch.setattr(native, "_compiler", lambda: None)
-    robot = Robot.from_body(np.full((2, 2, 2), Material.SOFT, np.int8))
+    robot = Robot.box((2, 2, 2), Material.SOFT)
     with pytest.raises(NativeBuildError, match="C compiler"):
         compile_robot(robot, physics=NETWORK)  # the voxel pipeline needs the plugin
     # the pure-MuJoCo pipeline's network step would need the plugin's forces
@@ -186,13 +186,13 @@ def test_compiled_robot_reports_the_rates_behind_its_step():
     (μ > 2√λ): a mode's damping ratio grows with its frequency."""
     from mjregen.physics.model import round_like_mjcf
 
-    compiled = compile_robot(Robot.from_body(np.ones((3, 3, 3), dtype=np.int8)),
+    compiled = compile_robot(Robot.box((3, 3, 3)),
                              physics=NETWORK)
     stiffness, damping = compiled.network_rates
     safety = NETWORK.scene.timestep_safety
     assert compiled.timestep == round_like_mjcf(safety * stable_step(stiffness, damping))
     assert damping > 2.0 * np.sqrt(stiffness)  # mode damping ratio above 1
-    assert compile_robot(Robot.from_body(np.ones((3, 3, 3), dtype=np.int8)),
+    assert compile_robot(Robot.box((3, 3, 3)),
                          physics=STIFFEST_BOND).network_rates is None
 
 
@@ -200,7 +200,7 @@ def test_a_robot_without_hard_voxels_takes_nothing_from_the_hard_material():
     """The step is the robot's own network's: a soft block's step and motion do not depend
     on the hard material's modulus (the engine's rule would take its stiffest material's);
     one hard voxel in it shortens the step only as far as its own bonds need."""
-    soft = Robot.from_body(np.ones((3, 3, 3), np.int8))
+    soft = Robot.box((3, 3, 3))
     physics = Physics().replace(settle_time=0.0)
     materials = dict(physics.materials)
     hard = materials[Material.HARD]

@@ -77,7 +77,7 @@ def test_driven_robot_same_motion(grid, physics):
 @pytest.mark.parametrize("dim", [2, 3])
 def test_clamped_hard_cantilever_same_motion(dim):
     shape = (5, 1, 1) if dim == 3 else (5, 1)
-    robot = Robot.from_body(np.full(shape, 2, dtype=np.int8))
+    robot = Robot.box(shape, 2)
     root = next(iter(robot.voxels()))[0]
     out = _both(robot, TENDONS, 3000, clamped=[root], elevation=0.01)
     (q_v, v_v, *_), (q_m, v_m, *_) = out["voxel"], out["mujoco"]

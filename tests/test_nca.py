@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 import torch
 
-from mjregen.checkpoint import load_nca, save_nca
+from mjregen.growth.checkpoint import load_nca, save_nca
 from mjregen.errors import CheckpointError, InvalidGenomeError
 from mjregen.grid import Material, clean_grids
-from mjregen.nca import (
+from mjregen.growth.nca import (
     CHUNK,
     NCA,
     CAState,

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from mjregen import interrupt
-from mjregen.parallel import ProcessBackend, SerialBackend, ThreadBackend, make_backend
+from mjregen.search.backends import ProcessBackend, SerialBackend, ThreadBackend, make_backend
 
 
 def square_slowly(x: int) -> int:
@@ -108,7 +108,7 @@ def test_ray_backend_locally():
 def test_ray_backend_without_ray_is_a_clear_error(monkeypatch):
     import sys
 
-    from mjregen.parallel import BackendError
+    from mjregen.search.backends import BackendError
 
     monkeypatch.setitem(sys.modules, "ray", None)  # as if Ray were not installed
     with pytest.raises(BackendError, match="pip install"):

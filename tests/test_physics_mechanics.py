@@ -21,13 +21,13 @@ def bar(n: int, material: int, *, dim: int, axis: int) -> Robot:
     """A straight bar of n voxels along grid `axis` (0 = x, last = z)."""
     shape = [1] * dim
     shape[axis] = n
-    return Robot.from_body(np.full(shape, material, dtype=np.int8))
+    return Robot.box(shape, material)
 
 
 def dropped_voxel(physics: Physics, seconds: float, dim: int = 3) -> tuple[np.ndarray, np.ndarray, float]:
     """(t, COM ``(n, 3)``, dt) of a soft voxel dropped with its bottom 5 mm above the floor,
     recorded at the start of every step for `seconds`."""
-    compiled = compile_robot(Robot.from_body(np.ones((1,) * dim, dtype=np.int8)),
+    compiled = compile_robot(Robot.box((1,) * dim),
                              physics=physics, elevation=5e-3)
     sim = simulation_of(compiled)
     dt = compiled.timestep
@@ -83,7 +83,7 @@ def test_drag_slows_each_voxel_with_its_own_modulus_and_its_spin_ten_times_harde
     I = m L²/6 (155 s⁻¹ soft, 347 s⁻¹ hard). Tolerance: twice Euler's error of a decay,
     k² t dt / 2 relative to first order."""
     physics = Physics().replace(floor=False, gravity=0.0, settle_time=0.0)
-    compiled = compile_robot(Robot.from_body(np.full((1, 1, 1), code, dtype=np.int8)),
+    compiled = compile_robot(Robot.box((1, 1, 1), code),
                              physics=physics)
     sim = simulation_of(compiled)
     sim.data.qvel[:] = [0.01, 0.0, 0.0, 0.0, 0.0, 2.0]  # m/s along x, rad/s about z
@@ -321,7 +321,7 @@ def test_point_contacts_rest_like_the_engine_and_exert_no_moment(shape, spin):
     physics = Physics().replace(pipeline="mujoco", contact_shape=shape, contact_stiffness=2.0,
                                 contact_damping=1.2, settle_time=0.0, collision_radius=0.0,
                                 bond_model="euler_bernoulli", timestep_rule="network")
-    robot = Robot.from_body(np.ones((1, 1, 1), dtype=np.int8))
+    robot = Robot.box((1, 1, 1))
     compiled = compile_robot(robot, physics=physics)
     sim = simulation_of(compiled)
     data = sim.data

@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 import torch
 
-from mjregen.evolve import GAConfig, GeneticAlgorithm
+from mjregen.search.ga import GAConfig, GeneticAlgorithm
 from mjregen.grid import Robot
-from mjregen.nca import NCA, CellNetwork, NCAConfig, network_to_genome, random_genomes
-from mjregen.parallel import SerialBackend
-from mjregen.regen import (
+from mjregen.growth.nca import NCA, CellNetwork, NCAConfig, network_to_genome, random_genomes
+from mjregen.search.backends import SerialBackend
+from mjregen.tasks.regrowth import (
     RegrowthTask,
     cut_half_space,
     paper_cut,
@@ -123,8 +123,8 @@ def test_a_tiny_2d_regrowth_evolution_improves_similarity():
 
 
 def test_shipped_tripod_regrowth_nca_regrows_the_tripod_exactly():
-    from mjregen.checkpoint import load_nca
-    from mjregen.recovery import regrowth_robots
+    from mjregen.growth.checkpoint import load_nca
+    from mjregen.experiments.recovery import regrowth_robots
 
     nca, metadata = load_nca("assets/regen/tripod_ff.npz")
     tripod = Robot.load("assets/robots/paper/tripod.npy")
@@ -145,8 +145,8 @@ def test_shipped_walker_regrowth_ncas_regrow_what_walkers_json_records(name):
     CA state, the paper's cut, the shipped regrowth NCA; the similarities match the record."""
     import json
 
-    from mjregen.checkpoint import load_nca
-    from mjregen.regen import similarity, state_of_growth
+    from mjregen.growth.checkpoint import load_nca
+    from mjregen.tasks.regrowth import similarity, state_of_growth
 
     record = next(w for w in json.loads(Path("assets/robots/walkers/walkers.json").read_text())["walkers"]
                   if w["name"] == name)

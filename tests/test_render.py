@@ -40,10 +40,6 @@ def backend():
         yield select_gl_backend()
 
 
-def block(material: Material, size: int = 2) -> Robot:
-    return Robot.from_body(np.full((size, size, size), material, dtype=np.int8))
-
-
 def material_of_pixels(image: np.ndarray) -> dict[Material, int]:
     """Coloured pixels (HSV saturation >= 0.3, i.e. not floor or sky) by nearest material
     chromaticity (r, g, b)/(r + g + b), which does not depend on how a face is lit."""
@@ -111,7 +107,7 @@ def test_unusable_backend_is_a_clear_error():
 
 @pytest.mark.parametrize("material", list(MATERIAL_RGBA))
 def test_each_material_renders_in_its_colour(backend, material):
-    compiled = compile_robot(block(material))
+    compiled = compile_robot(Robot.box((2, 2, 2), material))
     with RobotRenderer(compiled, view=SMALL, backend=backend) as renderer:
         image = renderer.render()
     assert image.shape == (120, 160, 3) and image.dtype == np.uint8
@@ -133,7 +129,7 @@ def test_mixed_robot_shows_every_material(backend):
 
 def test_camera_follows_the_robot(backend):
     """Moved 40 voxel lengths away, the robot is still in the middle of the frame."""
-    compiled = compile_robot(block(Material.HARD))
+    compiled = compile_robot(Robot.box((2, 2, 2), Material.HARD))
     moved = compiled.model.qpos0.copy()
     for adr in compiled.model.jnt_qposadr:  # free joints: x, y, z, quaternion
         moved[adr: adr + 2] += [0.04, -0.03]
@@ -154,7 +150,7 @@ def renderer_image_again(compiled, qpos, backend) -> np.ndarray:
 
 
 def test_bad_states_are_rejected(backend):
-    compiled = compile_robot(block(Material.SOFT))
+    compiled = compile_robot(Robot.box((2, 2, 2), Material.SOFT))
     with RobotRenderer(compiled, view=SMALL, backend=backend) as renderer:
         with pytest.raises(ValueError, match="shape"):
             renderer.render(np.zeros(3))
@@ -219,13 +215,13 @@ def test_ffmpeg_is_found_or_named(monkeypatch):
                                              ({"duration": -1.0}, "duration")])
 def test_bad_walk_settings_are_rejected(kwargs, problem):
     with pytest.raises(ValueError, match=problem):
-        record_walk(compile_robot(block(Material.SOFT)), **kwargs)
+        record_walk(compile_robot(Robot.box((2, 2, 2), Material.SOFT)), **kwargs)
 
 
 def test_png_frames(backend, tmp_path):
     from PIL import Image
 
-    compiled = compile_robot(block(Material.MUSCLE_PLUS))
+    compiled = compile_robot(Robot.box((2, 2, 2), Material.MUSCLE_PLUS))
     states = np.stack([compiled.model.qpos0] * 2)
     paths = write_frames(compiled, states, tmp_path, view=SMALL, progress=False, backend=backend)
     assert [p.name for p in paths] == ["frame_00000.png", "frame_00001.png"]
@@ -261,7 +257,7 @@ def test_growth_figure_rejects_bad_input(tmp_path):
 
 
 def test_frames_replaced_with_force_leave_no_stale_frames(backend, tmp_path):
-    compiled = compile_robot(Robot.from_body(np.ones((2, 2, 2), np.int8)))
+    compiled = compile_robot(Robot.box((2, 2, 2)))
     states = np.repeat(compiled.model.qpos0[None], 4, axis=0)
     write_frames(compiled, states, tmp_path, view=SMALL, progress=False, backend=backend)
     write_frames(compiled, states[:2], tmp_path, view=SMALL, overwrite=True, progress=False,

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from mjregen.errors import InvalidGridError
-from mjregen.fitness import (
+from mjregen.tasks.fitness import (
     EMPTY_FITNESS,
     UNSTABLE_FITNESS,
     VOXEL_COST,
@@ -80,7 +80,7 @@ def test_same_robot_gives_bit_identical_results():
 
 
 def test_duration_sets_the_measured_time():
-    robot = Robot.from_body(np.ones((2, 1, 1), dtype=np.int8))
+    robot = Robot.box((2, 1, 1))
     result = simulate(robot, duration=0.01)
     assert result.steps == round(0.05 / result.timestep) + round(0.01 / result.timestep)
     with pytest.raises(PhysicsParameterError, match="duration"):
@@ -99,7 +99,7 @@ def test_empty_robot_scores_without_simulating(shape, fitness):
 
 def test_unstable_run_is_flagged_with_penalty_not_raised():
     """20× the stable time step makes explicit integration diverge: a defined result."""
-    robot = Robot.from_body(np.ones((2, 2, 2), dtype=np.int8))
+    robot = Robot.box((2, 2, 2))
     physics = Physics().replace(timestep_safety=20.0)
     result = simulate(robot, physics=physics)
     assert not result.stable and result.reason
@@ -107,7 +107,7 @@ def test_unstable_run_is_flagged_with_penalty_not_raised():
     assert math.isnan(result.distance) and math.isnan(result.heading)
     assert all(math.isnan(d) for d in result.displacement)
     assert result.steps < round(0.55 / result.timestep)  # stopped early
-    result_2d = simulate(Robot.from_body(np.ones((2, 2), dtype=np.int8)), physics=physics)
+    result_2d = simulate(Robot.box((2, 2)), physics=physics)
     assert not result_2d.stable and locomotion_fitness(result_2d) == UNSTABLE_FITNESS[2] == -1.0
 
 
@@ -132,7 +132,7 @@ def test_default_timestep_is_stable_for_a_block_with_interior_voxels(element):
     and the guard catches it. Beams and tendons have the same linear stiffness and damping,
     so the same limit (both run at 1.05 and diverge at 1.1).
     """
-    robot = Robot.from_body(np.full((4, 4, 4), 2, dtype=np.int8))
+    robot = Robot.box((4, 4, 4), 2)
     outcomes = []
     for safety in (0.75, 1.25):
         physics = Physics().replace(timestep_safety=safety, bond_element=element,

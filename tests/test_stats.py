@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from mjregen.stats import bootstrap_curves, group_stats, plot_groups
+from mjregen.search.stats import bootstrap_curves, group_stats, plot_groups
 
 
 def test_bootstrap_ci_covers_the_mean_and_shrinks_with_more_runs():

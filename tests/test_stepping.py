@@ -10,7 +10,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from mjregen.fitness import UNSTABLE_FITNESS, locomotion_fitness
+from mjregen.tasks.fitness import UNSTABLE_FITNESS, locomotion_fitness
 from mjregen.grid import Robot
 from mjregen.physics import Physics, PhysicsParameterError, native
 from mjregen.physics.compile import compile_robot
@@ -54,7 +54,7 @@ def test_same_motion_as_mj_step(grid, physics):
 
 
 def test_clamped_voxels_stay_and_the_rest_moves_like_mj_step():
-    robot = Robot.from_body(np.full((4, 1, 1), 2, dtype=np.int8))
+    robot = Robot.box((4, 1, 1), 2)
     root = next(iter(robot.voxels()))[0]
     physics = Physics().replace(floor=False)
     a = _run(robot, physics.replace(stepper="mujoco"), 2000, clamped=[root],
@@ -69,7 +69,7 @@ def test_clamped_voxels_stay_and_the_rest_moves_like_mj_step():
 def test_free_fall_is_semi_implicit_euler():
     """No floor: after n steps z = z0 − g dt² n(n+1)/2 and v = −g n dt (exactly the Euler map)."""
     physics = NATIVE.replace(floor=False, drag_ratio=0.0)
-    sim = simulation_of(compile_robot(Robot.from_body(np.full((2, 2, 2), 1, np.int8)),
+    sim = simulation_of(compile_robot(Robot.box((2, 2, 2), 1),
                                       physics=physics))
     z0 = sim.data.qpos[2]
     n, dt, g = 1000, sim.model.opt.timestep, physics.scene.gravity
@@ -82,7 +82,7 @@ def test_free_fall_is_semi_implicit_euler():
 def test_spin_about_a_fixed_axis_turns_by_omega_t():
     """A lone voxel spun about a body axis: the quaternion turns by ω·t (no gravity, floor)."""
     physics = NATIVE.replace(floor=False, gravity=0.0, drag_ratio=0.0)
-    sim = simulation_of(compile_robot(Robot.from_body(np.ones((1, 1, 1), np.int8)),
+    sim = simulation_of(compile_robot(Robot.box((1, 1, 1)),
                                       physics=physics))
     omega, n = 300.0, 4000  # rad/s
     sim.data.qvel[3:6] = [0.0, 0.0, omega]
@@ -99,7 +99,7 @@ def test_quaternion_update_equals_mujoco_at_any_turn_per_step(turn):
     """The stepper's quaternion update (a series for small turns, sin and cos above)
     equals MuJoCo's mju_quatIntegrate in mj_step, step by step."""
     physics = NATIVE.replace(floor=False, gravity=0.0, drag_ratio=0.0)
-    model = compile_robot(Robot.from_body(np.ones((1, 1, 1), np.int8)), physics=physics).model
+    model = compile_robot(Robot.box((1, 1, 1)), physics=physics).model
     ours, theirs = mujoco.MjData(model), mujoco.MjData(model)
     spin = np.array([0.3, -0.5, 0.8]) / np.linalg.norm([0.3, -0.5, 0.8])
     for data in (ours, theirs):

@@ -4,7 +4,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mjregen import walkers as wk
+from mjregen.experiments import walkers as wk
 from mjregen.grid import Robot
 
 

@@ -7,7 +7,7 @@ import math
 from pathlib import Path
 
 from mjregen.errors import MjregenError
-from mjregen.evolve import PRESETS, GAConfig
+from mjregen.search.ga import PRESETS, GAConfig
 from mjregen.grid import Material, Robot
 
 

@@ -20,7 +20,7 @@ from mjregen.errors import MjregenError
 
 
 def add_evolve(subparsers: argparse._SubParsersAction) -> None:
-    from mjregen.parallel import BACKENDS
+    from mjregen.search.backends import BACKENDS
 
     parser = subparsers.add_parser(
         "evolve",
@@ -47,30 +47,26 @@ def add_evolve(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _evolve(args: argparse.Namespace) -> int:
-    from mjregen.locomotion import LocomotionTask
-    from mjregen.nca import NCAConfig
-    from mjregen.parallel import make_backend
-    from mjregen.runs import run_evolution
+    from mjregen.experiments.locomotion import evolve_locomotion
+    from mjregen.growth.nca import NCAConfig
+    from mjregen.search.backends import make_backend
 
     if args.resume:
         task, ga, seed = _stored_run(args)
+        nca, physics, duration = task.nca, task.physics, task.duration
     else:
         dim = args.dim or 3
-        ga = ga_config(args, f"{dim}d")
-        physics = physics_from_args(args)
-        task = LocomotionTask(nca=NCAConfig(dim=dim, kind=args.net or "ff"), physics=physics,
-                              duration=args.duration)
-        seed = 0 if args.seed is None else args.seed
-    task_config = {"task": "locomotion", "nca": task.nca.to_dict(), "physics": task.physics.to_dict(),
-                   "duration": task.duration}
+        ga, seed = ga_config(args, f"{dim}d"), (0 if args.seed is None else args.seed)
+        nca = NCAConfig(dim=dim, kind=args.net or "ff")
+        physics, duration = physics_from_args(args), args.duration
     with make_backend(args.backend, workers=args.workers, address=args.address) as backend:
-        summary = run_evolution(task, ga, seed=seed, out=args.out, backend=backend,
-                                task_config=task_config, resume=args.resume, force=args.force,
-                                progress=not args.quiet)
-    report = {"out": str(summary.out), "generations": summary.generations,
-              "best_fitness": summary.best_fitness, "best_generation": summary.best_generation}
+        summary = evolve_locomotion(out=args.out, nca=nca, ga=ga, seed=seed, backend=backend,
+                                    physics=physics, duration=duration, resume=args.resume,
+                                    force=args.force, progress=not args.quiet)
     if args.json:
-        print(json.dumps(report))
+        print(json.dumps({"out": str(summary.out), "generations": summary.generations,
+                          "best_fitness": summary.best_fitness,
+                          "best_generation": summary.best_generation}))
     else:
         print(f"best fitness {summary.best_fitness:.4f} in generation {summary.best_generation}; "
               f"run folder {summary.out}")
@@ -79,27 +75,13 @@ def _evolve(args: argparse.Namespace) -> int:
 
 def _stored_run(args: argparse.Namespace) -> tuple:
     """Task, GA settings and seed of the run in ``args.out``; flags given must agree."""
-    from mjregen.evolve import GAConfig
-    from mjregen.locomotion import LocomotionTask
-    from mjregen.nca import NCAConfig
-    from mjregen.physics import Physics
+    from mjregen.experiments.locomotion import stored_locomotion_run
 
-    path = args.out / "config.json"
-    if not path.is_file():
-        raise MjregenError(f"nothing to resume: {path} does not exist")
-    try:
-        stored = json.loads(path.read_text())
-        task = LocomotionTask(nca=NCAConfig.from_dict(stored["task"]["nca"]),
-                              physics=Physics.from_dict(stored["task"]["physics"]),
-                              duration=stored["task"]["duration"])
-    except (json.JSONDecodeError, UnicodeDecodeError, KeyError, TypeError) as error:
-        raise MjregenError(f"{path} is not a readable run configuration: "
-                           f"{type(error).__name__}: {error}") from None
-    ga = GAConfig(**stored["ga"])
+    task, ga, seed = stored_locomotion_run(args.out)
     given = {"dim": (args.dim, task.nca.dim), "net": (args.net, task.nca.kind),
              "pop": (args.pop, ga.population), "gens": (args.gens, ga.generations),
              "truncation": (args.truncation, ga.truncation), "elites": (args.elites, ga.elites),
-             "sigma": (args.sigma, ga.sigma), "seed": (args.seed, stored["seed"]),
+             "sigma": (args.sigma, ga.sigma), "seed": (args.seed, seed),
              "duration": (args.duration, task.duration),
              "settle": (args.settle, task.physics.scene.settle_time),
              "bonds": (args.bonds, getattr(task.physics.pipeline, "bond_element", None)),
@@ -109,7 +91,7 @@ def _stored_run(args: argparse.Namespace) -> tuple:
     conflicts = [f"--{k} {v} (run has {s})" for k, (v, s) in given.items() if v is not None and v != s]
     if conflicts:
         raise MjregenError(f"{args.out} was started with other settings: {', '.join(conflicts)}")
-    return task, ga, stored["seed"]
+    return task, ga, seed
 
 
 def add_evolve_stats(subparsers: argparse._SubParsersAction) -> None:
@@ -131,7 +113,7 @@ def add_evolve_stats(subparsers: argparse._SubParsersAction) -> None:
 
 def _evolve_stats(args: argparse.Namespace) -> int:
     from mjregen.errors import OutputExistsError
-    from mjregen.stats import group_stats, plot_groups, run_kind
+    from mjregen.search.stats import group_stats, plot_groups, run_kind
 
     if args.out.exists() and not args.force:
         raise OutputExistsError(args.out)

@@ -40,8 +40,8 @@ def add_grow(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _grow(args: argparse.Namespace) -> int:
-    from mjregen.checkpoint import load_nca
-    from mjregen.nca import NCA, NCAConfig
+    from mjregen.growth.checkpoint import load_nca
+    from mjregen.growth.nca import NCA, NCAConfig
 
     if args.steps is not None and args.steps < 1:
         raise MjregenError(f"--steps must be at least 1, got {args.steps}")
@@ -120,7 +120,7 @@ def add_walk(subparsers: argparse._SubParsersAction) -> None:
 
 def _walk(args: argparse.Namespace) -> int:
     from mjregen.fileio import atomic_open
-    from mjregen.fitness import locomotion_fitness
+    from mjregen.tasks.fitness import locomotion_fitness
     from mjregen.physics.simulation import simulate
 
     robot = Robot.load(args.robot)

@@ -259,7 +259,7 @@ def simulate(
       record: also return the centre-of-mass trajectory (every step).
     Returns:
       A `Result`; an unstable run is marked ``stable=False`` (distance NaN) and never
-      raises. The locomotion task's fitness: `mjregen.fitness.locomotion_fitness`.
+      raises. The locomotion task's fitness: `mjregen.tasks.fitness.locomotion_fitness`.
     Raises:
       InvalidGridError: `robot` is not a valid grid.
       PhysicsParameterError: `duration` negative or not finite.

@@ -35,15 +35,15 @@ import numpy as np
 from tqdm import tqdm
 
 from mjregen import __version__
-from mjregen.checkpoint import save_nca
+from mjregen.growth.checkpoint import save_nca
 from mjregen import interrupt
 from mjregen.errors import CheckpointError, MjregenError
-from mjregen.evaluation import PopulationEvaluation
-from mjregen.evolve import GAConfig, GeneticAlgorithm
+from mjregen.tasks.evaluation import PopulationEvaluation
+from mjregen.search.ga import GAConfig, GeneticAlgorithm
 from mjregen.fileio import atomic_open
 from mjregen.grid import Robot
-from mjregen.nca import NCA, NCAConfig
-from mjregen.parallel import Backend
+from mjregen.growth.nca import NCA, NCAConfig
+from mjregen.search.backends import Backend
 from mjregen.plotting import line_axes, save_png
 
 RUN_FORMAT = "mjregen-run-1"
@@ -230,7 +230,7 @@ def run_evolution(
     """Evolve `task` with the GA, writing the run folder `out` (see the module docstring).
 
     Args:
-      task: what to evaluate (e.g. `mjregen.locomotion.LocomotionTask`).
+      task: what to evaluate (e.g. `mjregen.tasks.locomotion.LocomotionTask`).
       ga_config: population, generations, truncation, elites, sigma.
       seed: seeds the GA (the only random thing in a run).
       out: the run folder.

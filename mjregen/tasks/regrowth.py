@@ -11,15 +11,18 @@ occupies.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
 from dataclasses import dataclass
 
 import numpy as np
 import torch
 
-from mjregen.evaluation import PopulationEvaluation
+from mjregen.tasks.evaluation import PopulationEvaluation
 from mjregen.grid import Robot, half_space_mask
-from mjregen.nca import CAState, Growth, NCAConfig, grow
-from mjregen.parallel import Backend
+from mjregen.growth.nca import CAState, Growth, NCAConfig, grow
+
+if TYPE_CHECKING:  # the search layer hands a task its backend
+    from mjregen.search.backends import Backend
 
 
 def state_of_growth(growth: Growth, index: int = 0) -> CAState:

@@ -12,15 +12,18 @@ Unstable simulations keep their penalty fitness; individuals whose evaluation fa
 from __future__ import annotations
 
 from collections import OrderedDict
+from typing import TYPE_CHECKING
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from mjregen.evaluation import PopulationEvaluation, RobotJob, evaluate_robot, expected_cost
-from mjregen.fitness import EMPTY_FITNESS, UNSTABLE_FITNESS
-from mjregen.nca import NCAConfig, grow
-from mjregen.parallel import Backend
+from mjregen.tasks.evaluation import PopulationEvaluation, RobotJob, evaluate_robot, expected_cost
+from mjregen.tasks.fitness import EMPTY_FITNESS, UNSTABLE_FITNESS
+from mjregen.growth.nca import NCAConfig, grow
 from mjregen.physics import Physics
+
+if TYPE_CHECKING:  # the search layer hands a task its backend
+    from mjregen.search.backends import Backend
 
 
 @dataclass(frozen=True)
@@ -41,6 +44,24 @@ class LocomotionTask:
     cache_size: int = 20_000
     _cache: OrderedDict = field(default_factory=OrderedDict, init=False, repr=False,
                                 compare=False)
+
+    def to_config(self) -> dict:
+        """The task as JSON (a run folder's config.json "task" entry)."""
+        return {"task": "locomotion", "nca": self.nca.to_dict(),
+                "physics": self.physics.to_dict(), "duration": self.duration}
+
+    @classmethod
+    def from_config(cls, config: dict) -> LocomotionTask:
+        """The task `to_config` described (physics descriptions of any format migrate).
+
+        Raises:
+          ValueError: `config` is not a locomotion task's.
+          KeyError: an entry is missing.
+        """
+        if config.get("task") != "locomotion":
+            raise ValueError(f"not a locomotion task: {config.get('task')!r}")
+        return cls(nca=NCAConfig.from_dict(config["nca"]),
+                   physics=Physics.from_dict(config["physics"]), duration=config["duration"])
 
     @property
     def genome_size(self) -> int:

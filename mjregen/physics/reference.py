@@ -107,13 +107,9 @@ def _first_bounce(z: np.ndarray) -> tuple[int, float]:
     return low, float(z[low:end].max())
 
 
-def _block(shape: tuple[int, ...], material: Material = Material.SOFT) -> Robot:
-    return Robot.from_body(np.full(shape, int(material), dtype=np.int8))
-
-
 def drop_voxel(physics: Physics) -> CaseResult:
     """One soft voxel, bottom face at 5 mm, 0.1 s: rest height, rebound, penetration."""
-    compiled = compile_robot(_block((1, 1, 1)), physics=physics, elevation=5e-3)
+    compiled = compile_robot(Robot.box((1, 1, 1)), physics=physics, elevation=5e-3)
     sim = simulation_of(compiled)
     t, x, reason = _run_recording(sim, compiled.body_ids, 0.1, every=1)
     z = x[:, 0, 2]
@@ -127,7 +123,7 @@ def drop_voxel(physics: Physics) -> CaseResult:
 
 def drop_block(physics: Physics) -> CaseResult:
     """3×3×3 soft block, bottom at 2 mm, 0.2 s: rest COM height, first rebound apex."""
-    compiled = compile_robot(_block((3, 3, 3)), physics=physics, elevation=2e-3)
+    compiled = compile_robot(Robot.box((3, 3, 3)), physics=physics, elevation=2e-3)
     sim = simulation_of(compiled)
     t, x, reason = _run_recording(sim, compiled.body_ids, 0.2, every=1)
     z = x[:, :, 2].mean(axis=1)
@@ -139,7 +135,7 @@ def drop_block(physics: Physics) -> CaseResult:
 
 def slide_bar(physics: Physics, speed: float) -> CaseResult:
     """3×1×1 soft bar resting; every voxel gets +x `speed` (m/s) at 10 ms: slide, stop."""
-    compiled = compile_robot(_block((3, 1, 1)), physics=physics)
+    compiled = compile_robot(Robot.box((3, 1, 1)), physics=physics)
     sim = simulation_of(compiled)
     dt = compiled.timestep
     t0, x0, r0 = _run_recording(sim, compiled.body_ids, 0.01, every=1)
@@ -174,7 +170,7 @@ def bar_red_green(physics: Physics) -> CaseResult:
 
 def cantilever(physics: Physics) -> CaseResult:
     """5 hard voxels along x, the first clamped, floor off, 0.3 s: tip sag."""
-    compiled = compile_robot(_block((5, 1, 1), Material.HARD),
+    compiled = compile_robot(Robot.box((5, 1, 1), Material.HARD),
                              physics=physics.replace(floor=False), clamped=[(1, 1, 1)])
     sim = simulation_of(compiled)
     t, x, reason = _run_recording(sim, compiled.body_ids, 0.3, every=1)

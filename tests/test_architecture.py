@@ -1,5 +1,10 @@
-"""The import graph of the package has no cycle (imports inside functions included), and
-walking a robot imports only what it needs."""
+"""The architecture as a contract: the package's layers (docs/design.md), bottom to top
+
+    base → grid → growth → physics → tasks → search → experiments → faces
+
+import only from their own layer or below (imports inside functions included, imports for
+type checking only left out), nothing has an import cycle, and walking a robot imports
+only what it needs."""
 
 from __future__ import annotations
 
@@ -15,15 +20,68 @@ from mjregen.resources import asset
 ROOT = Path(mjregen.__file__).parent
 
 
+# Each layer by module prefix. base: utilities every layer may use; faces: what a person
+# touches (the command line, rendering, figures, the dm_control environment).
+LAYERS = {
+    "base": ("mjregen.errors", "mjregen.fileio", "mjregen.resources", "mjregen.interrupt",
+             "mjregen.native_cache", "mjregen.plotting"),
+    "grid": ("mjregen.grid",),
+    "growth": ("mjregen.growth",),
+    "physics": ("mjregen.physics",),
+    "tasks": ("mjregen.tasks",),
+    "search": ("mjregen.search",),
+    "experiments": ("mjregen.experiments",),
+    "faces": ("mjregen.cli", "mjregen.render", "mjregen.figures", "mjregen.env",
+              "mjregen.gl", "mjregen.video", "mjregen.__main__"),
+}
+ORDER = list(LAYERS)
+FACADE = "mjregen"  # the package itself: its lazy names reach into the layers on request
+
+
+def layer_of(module: str) -> str:
+    """The layer of a module name (KeyError for a module that has none: place it)."""
+    for layer, prefixes in LAYERS.items():
+        if any(module == p or module.startswith(p + ".") for p in prefixes):
+            return layer
+    raise KeyError(module)
+
+
+def layer_violations(graph: dict[str, set[str]]) -> list[str]:
+    """Each import of a module from a higher layer, as "a (layer) imports b (layer)"."""
+    found = []
+    for module, targets in sorted(graph.items()):
+        if module == FACADE:
+            continue
+        for target in sorted(targets - {FACADE}):
+            if ORDER.index(layer_of(target)) > ORDER.index(layer_of(module)):
+                found.append(f"{module} ({layer_of(module)}) imports {target} "
+                             f"({layer_of(target)})")
+    return found
+
+
+def _type_checking_only(tree: ast.Module) -> set[int]:
+    """ids of the import nodes inside ``if TYPE_CHECKING:`` blocks."""
+    skipped = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.If) and getattr(node.test, "id", None) == "TYPE_CHECKING":
+            skipped.update(id(child) for stmt in node.body for child in ast.walk(stmt))
+    return skipped
+
+
 def module_graph() -> dict[str, set[str]]:
-    """Module name -> the mjregen modules it imports anywhere in its source."""
+    """Module name -> the mjregen modules it imports anywhere in its source, type-checking
+    imports aside."""
     files = {}
     for path in ROOT.rglob("*.py"):
         parts = ("mjregen", *path.relative_to(ROOT).with_suffix("").parts)
         files[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = path
     graph = {name: set() for name in files}
     for name, path in files.items():
-        for node in ast.walk(ast.parse(path.read_text())):
+        tree = ast.parse(path.read_text())
+        skipped = _type_checking_only(tree)
+        for node in ast.walk(tree):
+            if id(node) in skipped:
+                continue
             if isinstance(node, ast.ImportFrom) and node.module:
                 targets = []
                 for alias in node.names:
@@ -75,8 +133,44 @@ def test_the_package_has_no_import_cycle():
     graph = module_graph()
     assert "mjregen.physics.native" in graph["mjregen.physics.compile"]
     assert "mjregen.physics" not in graph["mjregen.physics.compile"]  # siblings only
-    assert "mjregen.physics" in graph["mjregen.locomotion"]  # the package's own names
+    assert "mjregen.physics" in graph["mjregen.tasks.locomotion"]  # the package's own names
     assert find_cycle(graph) == []
+
+
+def _has_layer(module: str) -> bool:
+    try:
+        layer_of(module)
+    except KeyError:
+        return False
+    return True
+
+
+def test_every_module_has_a_layer():
+    assert [m for m in module_graph() if m != FACADE and not _has_layer(m)] == []
+
+
+def test_a_layer_imports_only_from_its_own_layer_or_below():
+    assert layer_violations(module_graph()) == []
+
+
+def test_the_contract_catches_a_wrong_import():
+    """A lower layer importing a higher one (the command line below the faces, a task
+    reaching into the search) is caught; an import inside a function counts, one for type
+    checking only does not."""
+    graph = module_graph()
+    graph["mjregen.grid"] = graph["mjregen.grid"] | {"mjregen.cli"}
+    graph["mjregen.tasks.locomotion"] = graph["mjregen.tasks.locomotion"] | {"mjregen.search.runs"}
+    assert layer_violations(graph) == [
+        "mjregen.grid (grid) imports mjregen.cli (faces)",
+        "mjregen.tasks.locomotion (tasks) imports mjregen.search.runs (search)"]
+    source = ("from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n"
+              "    from mjregen.search.backends import Backend\n"
+              "def f():\n    from mjregen.cli import main\n")
+    tree = ast.parse(source)
+    skipped = _type_checking_only(tree)
+    imported = [n.module for n in ast.walk(tree)
+                if isinstance(n, ast.ImportFrom) and id(n) not in skipped]
+    assert imported == ["typing", "mjregen.cli"]
 
 
 def test_walking_a_robot_imports_only_what_it_needs(tmp_path):

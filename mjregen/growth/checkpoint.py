@@ -14,7 +14,7 @@ import numpy as np
 
 from mjregen.errors import CheckpointError, InvalidGenomeError
 from mjregen.fileio import atomic_open
-from mjregen.nca import NCA, NCAConfig
+from mjregen.growth.nca import NCA, NCAConfig
 
 FORMAT = "mjregen-nca-1"
 

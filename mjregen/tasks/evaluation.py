@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from mjregen.fitness import locomotion_fitness
+from mjregen.tasks.fitness import locomotion_fitness
 from mjregen.grid import Material, Robot
 from mjregen.physics import Physics
 from mjregen.physics.simulation import simulate

@@ -1,16 +1,16 @@
 """The paper's experiments in one place: what is run, at which scale, into which folders.
 
 Evolution conditions (`CONDITIONS`): 2D and 3D robots, each grown by a feed-forward
-("ff") and an LSTM ("lstm") NCA, with the paper's GA (`mjregen.evolve.PRESETS` "2d"/"3d"),
-its fitness (`mjregen.locomotion.LocomotionTask`) and its run counts (10 runs in 2D, 24 in
-3D). The regrowth experiment: three diverse evolved 3D walkers (`mjregen.walkers`), the
-paper's cut (`mjregen.regen.paper_cut`, grid x-indices 0-3 of 9 removed), a regrowth NCA
+("ff") and an LSTM ("lstm") NCA, with the paper's GA (`mjregen.search.ga.PRESETS` "2d"/"3d"),
+its fitness (`mjregen.tasks.locomotion.LocomotionTask`) and its run counts (10 runs in 2D, 24 in
+3D). The regrowth experiment: three diverse evolved 3D walkers (`mjregen.experiments.walkers`), the
+paper's cut (`mjregen.tasks.regrowth.paper_cut`, grid x-indices 0-3 of 9 removed), a regrowth NCA
 evolved with the paper's regeneration GA (`PRESETS["regen"]`), then the locomotion
-recovery of the original, damaged and regrown robot (`mjregen.recovery`).
+recovery of the original, damaged and regrown robot (`mjregen.experiments.recovery`).
 
 A `Scale` says how much of that is run: "paper" is the paper's, "quick" a named reduced
 scale that fits about an hour on two cores, "smoke" seconds of work for tests. Every number
-can be overridden (`evolution_jobs`). Run folders (each a `mjregen.runs` folder)::
+can be overridden (`evolution_jobs`). Run folders (each a `mjregen.search.runs` folder)::
 
     <root>/<condition>/seed_<n>             evolutions, e.g. runs/results/3d_ff/seed_0
     <root>/walkers/walker_<i>.{npz,npy}     the three picked 3D walkers, walkers.json
@@ -32,8 +32,8 @@ from pathlib import Path
 import numpy as np
 
 from mjregen.errors import MjregenError
-from mjregen.evolve import PRESETS, GAConfig
-from mjregen.nca import NCAConfig
+from mjregen.search.ga import PRESETS, GAConfig
+from mjregen.growth.nca import NCAConfig
 from mjregen.physics import Physics
 
 DEFAULT_ROOT = Path("runs") / "results"
@@ -51,7 +51,7 @@ class Condition:
       name: folder name, "<dim>d_<kind>" (e.g. "3d_ff").
       dim: 2 or 3.
       kind: "ff" or "lstm".
-      preset: the paper's GA preset (a key of `mjregen.evolve.PRESETS`).
+      preset: the paper's GA preset (a key of `mjregen.search.ga.PRESETS`).
       paper_runs: independent runs in the paper (2D 10, 3D 24).
     """
 
@@ -156,12 +156,6 @@ def scale_of(config: dict) -> str:
     return "custom"
 
 
-def task_config(nca: NCAConfig, physics: Physics, duration: float | None) -> dict:
-    """The locomotion task's config.json entry, exactly as `mjregen evolve` writes it."""
-    return {"task": "locomotion", "nca": nca.to_dict(), "physics": physics.to_dict(),
-            "duration": duration}
-
-
 @dataclass(frozen=True)
 class EvolutionJob:
     """One evolution run: a condition, a seed and its settings."""
@@ -230,23 +224,21 @@ def evolution_jobs(scale: Scale, *, root: str | Path = DEFAULT_ROOT,
 
 def run_evolution_job(job: EvolutionJob, *, workers: int = 1, progress: bool = True):
     """Run (or resume, or leave alone when finished) one evolution; returns its
-    `mjregen.runs.RunSummary`.
+    `mjregen.search.runs.RunSummary`.
 
     A folder with a config.json is resumed; its settings must equal the job's.
 
     Raises:
-      mjregen.runs.RunFolderError: the folder holds a run with other settings.
+      mjregen.search.runs.RunFolderError: the folder holds a run with other settings.
     """
-    from mjregen.locomotion import LocomotionTask
-    from mjregen.parallel import make_backend
-    from mjregen.runs import run_evolution
+    from mjregen.experiments.locomotion import evolve_locomotion
+    from mjregen.search.backends import make_backend
 
-    task = LocomotionTask(nca=job.condition.nca, physics=job.physics, duration=job.duration)
     backend = make_backend("serial") if workers == 1 else make_backend("process", workers=workers)
     with backend:
-        return run_evolution(task, job.ga, seed=job.seed, out=job.out, backend=backend,
-                             task_config=task_config(task.nca, task.physics, task.duration),
-                             resume=(job.out / "config.json").is_file(), progress=progress)
+        return evolve_locomotion(out=job.out, nca=job.condition.nca, ga=job.ga, seed=job.seed,
+                                 backend=backend, physics=job.physics, duration=job.duration,
+                                 resume=(job.out / "config.json").is_file(), progress=progress)
 
 
 @dataclass(frozen=True)
@@ -373,7 +365,7 @@ def regen_folder(root: str | Path, walker: str, net: str, seed: int) -> Path:
 def regen_jobs(scale: Scale, walkers: list[dict], *, root: str | Path = DEFAULT_ROOT,
                population: int | None = None, generations: int | None = None,
                nets: tuple[str, ...] | None = None) -> list[RegenJob]:
-    """The regrowth runs of `scale` for `walkers` (from `mjregen.walkers.load_or_pick_walkers`)."""
+    """The regrowth runs of `scale` for `walkers` (from `mjregen.experiments.walkers.load_or_pick_walkers`)."""
     ga = scaled_ga(PRESETS["regen"], population or scale.regen_population,
                    generations or scale.regen_generations)
     jobs = []
@@ -387,17 +379,23 @@ def regen_jobs(scale: Scale, walkers: list[dict], *, root: str | Path = DEFAULT_
     return jobs
 
 
-def run_regen_job(job: RegenJob, *, progress: bool = True) -> int:
-    """Run (or resume) one regrowth with `mjregen regen`; 0 on success (then the folder holds
-    recovery.json/.md and original/damaged/regrown.npy). A finished job is left alone."""
-    from mjregen.cli import main
+def run_regen_job(job: RegenJob, *, progress: bool = True):
+    """Run (or resume) one regrowth (`mjregen.experiments.regrowth.run_regrowth`, the same
+    folder as the job's printed `mjregen regen` command, pictures and videos aside): returns
+    its `RegrowthRun`, or None for a finished job, which is left alone.
+
+    Raises:
+      mjregen.search.runs.RunFolderError: the folder holds a run with other settings.
+    """
+    from mjregen.experiments.regrowth import regrowth_source, run_regrowth
 
     if job.complete:
-        return 0
-    argv = job.argv() + ([] if progress else ["--quiet"])
-    if (job.out / "config.json").is_file():
-        argv.append("--resume")
-    return main(argv)
+        return None
+    physics = Physics() if job.settle is None else Physics().replace(settle_time=job.settle)
+    return run_regrowth(source=regrowth_source(checkpoint=job.checkpoint), out=job.out,
+                        net=job.net, ga=job.ga, seed=job.seed, physics=physics,
+                        duration=job.duration, resume=(job.out / "config.json").is_file(),
+                        progress=progress)
 
 
 def list_regen_runs(root: str | Path = DEFAULT_ROOT) -> list[tuple[str, str, Path]]:

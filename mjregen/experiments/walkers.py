@@ -1,6 +1,6 @@
 """Three good and diverse 3D walkers from the evolution runs, for the regrowth experiment.
 
-Candidates are the distinct best-of-generation robots of the 3D runs (`mjregen.experiments`
+Candidates are the distinct best-of-generation robots of the 3D runs (`mjregen.experiments.paper`
 folders) that walked and are one piece; `pick_walkers` takes the farthest walker, then the
 most different ones (`DIVERSITY`); `load_or_pick_walkers` picks once and keeps the choice
 in ``<root>/walkers/walkers.json``.
@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from mjregen.errors import MjregenError
-from mjregen.experiments import CONDITIONS, DEFAULT_ROOT, list_runs
+from mjregen.experiments.paper import CONDITIONS, DEFAULT_ROOT, list_runs
 from mjregen.fileio import atomic_open
 from mjregen.grid import Material, Robot
 
@@ -104,7 +104,7 @@ class Candidate:
 def walker_candidates(root: str | Path = DEFAULT_ROOT) -> list[Candidate]:
     """Every distinct best-of-generation robot of every 3D run under `root` that walked
     (finite distance > 0) and is one piece; the first occurrence of each grid is kept."""
-    from mjregen.checkpoint import load_nca
+    from mjregen.growth.checkpoint import load_nca
 
     seen: set[bytes] = set()
     found = []

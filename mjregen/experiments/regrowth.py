@@ -1,0 +1,139 @@
+"""A regrowth run as one library call (what `mjregen regen` runs): damage a robot's CA
+state, evolve a second NCA that regrows it (fitness: cells equal to the original, as in the
+paper), then walk the original, damaged and regrown robots (the paper's Table 1)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from mjregen.errors import MjregenError
+from mjregen.experiments.recovery import RecoveryReport, measure_recovery, write_report
+from mjregen.grid import Robot
+from mjregen.growth.checkpoint import load_nca
+from mjregen.growth.nca import CAState, Growth, NCAConfig
+from mjregen.physics import Physics
+from mjregen.resources import PAPER_ROBOTS, asset
+from mjregen.search.backends import SerialBackend
+from mjregen.search.ga import PRESETS, GAConfig
+from mjregen.search.runs import RunSummary, run_evolution
+from mjregen.tasks.regrowth import (
+    RegrowthTask,
+    cut_half_space,
+    paper_cut,
+    state_of_growth,
+    state_of_robot,
+)
+
+ROLES = ("original", "damaged", "regrown")
+
+
+@dataclass(frozen=True)
+class RegrowthSource:
+    """The robot a regrowth starts from.
+
+    Attributes:
+      robot: the original robot (on the NCA grid).
+      state: its CA state, the damage is cut from (`mjregen.tasks.regrowth`).
+      label: where it came from (a file's path), for config.json and reports.
+    """
+
+    robot: Robot
+    state: CAState
+    label: str
+
+
+def regrowth_source(*, robot: str | Path | None = None, checkpoint: str | Path | None = None,
+                    paper: str | None = None) -> RegrowthSource:
+    """The original robot of a regrowth, from exactly one of: a robot grid file (``.npy``;
+    its CA state: every voxel alive), an NCA checkpoint that grows it (its CA state as grown),
+    or the name of one of the paper's robots.
+
+    Raises:
+      MjregenError: not exactly one source, an unknown paper robot, a robot not on the NCA
+        grid, or a file that cannot be read.
+    """
+    given = [s for s in (robot, checkpoint, paper) if s is not None]
+    if len(given) != 1:
+        raise MjregenError("give exactly one of robot, checkpoint or paper")
+    if checkpoint is not None:
+        nca, _ = load_nca(checkpoint)
+        growth = nca.grow()
+        return RegrowthSource(growth.robot(), state_of_growth(growth), str(checkpoint))
+    if paper is not None and paper not in PAPER_ROBOTS:
+        raise MjregenError(f"unknown paper robot {paper!r}; choose from {', '.join(PAPER_ROBOTS)}")
+    path = Path(robot) if robot is not None else asset("robots", "paper", f"{paper}.npy")
+    original = Robot.load(path)
+    config = NCAConfig(dim=original.dim, kind="ff")
+    if original.shape != config.grid_shape:
+        raise MjregenError(f"{path}: regrowth needs the NCA grid {config.grid_shape}, "
+                           f"got {original.shape}")
+    return RegrowthSource(original, state_of_robot(original, config), str(path))
+
+
+@dataclass(frozen=True)
+class RegrowthRun:
+    """What `run_regrowth` did.
+
+    Attributes:
+      summary: the GA run (its folder, best genome, best similarity).
+      robots: {"original", "damaged" (cleaned), "regrown"}.
+      regrowth: the best regrowth NCA's growth from the damaged state (its steps' grids).
+      report: the three robots' walks (`mjregen.experiments.recovery`).
+    """
+
+    summary: RunSummary
+    robots: dict[str, Robot]
+    regrowth: Growth
+    report: RecoveryReport
+
+
+def run_regrowth(*, source: RegrowthSource, out: str | Path, damage: str | None = None,
+                 net: str = "ff", ga: GAConfig | None = None, seed: int = 0,
+                 physics: Physics | None = None, duration: float | None = None,
+                 name: str | None = None, resume: bool = False, force: bool = False,
+                 progress: bool = True) -> RegrowthRun:
+    """Damage `source`'s CA state, evolve an NCA that regrows it, walk the three robots.
+
+    Writes into the run folder `out`: the GA's files (config.json, metrics.csv, best/,
+    checkpoint.npz, fitness.png), original/damaged/regrown.npy and recovery.md/.json.
+
+    Args:
+      source: the original robot and its CA state (`regrowth_source`).
+      damage: cells removed, a half-space such as "x < 4"; None = the paper's cut (x below
+        the grid centre).
+      net: the regrowth NCA's network, "ff" or "lstm".
+      ga: the GA; None = the paper's regrowth preset.
+      seed: the GA's seed.
+      physics, duration: the walks' physics (None = the default) and s measured (None =
+        the scene's).
+      name: the robot's name in recovery.md (default: the source file's stem).
+      resume, force, progress: as for `mjregen.search.runs.run_evolution`.
+    Raises:
+      MjregenError: an unreadable damage condition or a damage that leaves nothing.
+      mjregen.search.runs.RunFolderError: `out` holds another run or nothing to resume.
+    """
+    out = Path(out)
+    damaged = paper_cut(source.state) if damage is None else cut_half_space(source.state, damage)
+    config = NCAConfig(dim=source.robot.dim, kind=net)
+    task = RegrowthTask(nca=config, original=np.asarray(source.robot.grid),
+                        damaged=CAState(damaged.state, damaged.alpha, None))
+    task_config = {
+        "task": "regrowth", "nca": config.to_dict(), "source": source.label,
+        "damage": damage or "paper cut", "original": source.robot.grid.tolist(),
+        "damaged_state": damaged.state[0].tolist(), "damaged_alpha": damaged.alpha[0].tolist(),
+    }
+    summary = run_evolution(task, ga or PRESETS["regen"], seed=seed, out=out,
+                            backend=SerialBackend(), task_config=task_config, resume=resume,
+                            force=force, progress=progress)
+    regrowth = task.regrow(summary.best_genome)
+    robots = {"original": source.robot,
+              "damaged": Robot(damaged.state[0].numpy().astype(np.int8)).cleaned(),
+              "regrown": regrowth.robot()}
+    for role, robot in robots.items():
+        robot.save(out / f"{role}.npy", overwrite=True)
+    report = measure_recovery(robots, physics=physics, duration=duration)
+    write_report(report, out, name=name or Path(source.label).stem)
+    return RegrowthRun(summary, robots, regrowth, report)

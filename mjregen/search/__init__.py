@@ -1,0 +1,2 @@
+"""Search: the genetic algorithm (ask/tell, never owning evaluation), evaluation backends
+(serial, processes, threads, Ray), run folders that resume exactly, statistics over runs."""
