@@ -1043,7 +1043,7 @@ measurable (it is not run); where pairs can collide it cost {skips[2]['saved']} 
 CPU times vary by several per cent between runs on this shared machine). Resting muscles
 move as soft voxels do (to rounding: their bonds come first in the bond order); one hard
 voxel in a soft block shortens its step only by what that voxel's bonds need. The tests
-check each (tests/test_engine_floor.py, tests/test_modes.py, tests/test_physics_mechanics.py).
+check each (tests/physics/test_engine_floor.py, tests/physics/test_timestep.py, tests/physics/test_physics_mechanics.py).
 
 ## Stability
 Every case at its default step, and the largest stable `timestep_safety` found by

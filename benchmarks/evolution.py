@@ -27,7 +27,8 @@ import numpy as np
 
 from mjregen.search.ga import PRESETS
 from mjregen.tasks.locomotion import LocomotionTask
-from mjregen.growth.nca import NCAConfig, random_genomes
+from mjregen.growth.nca import NCAConfig
+from mjregen.growth.networks import random_genomes
 from mjregen.search.backends import make_backend
 from mjregen.physics import Physics
 from mjregen.search.runs import run_evolution
@@ -82,7 +83,7 @@ def short_run(args: argparse.Namespace) -> dict:
     ga = PRESETS["3d"].with_overrides(population=args.pop, generations=args.gens)
     task = LocomotionTask(nca=NCAConfig(dim=3, kind="ff"))
     rows = []
-    wall, cpu = time.perf_counter(), time.process_time()
+    wall = time.perf_counter()
     with make_backend("process", workers=2) as backend:
         run_evolution(task, ga, seed=args.seed, out=args.out, backend=backend, force=True,
                       task_config={"benchmark": "short-run", "ga": ga.to_dict()},

@@ -16,7 +16,9 @@ import time
 
 import torch
 
-from mjregen.growth.nca import NCAConfig, grow, random_genomes
+from mjregen.growth.nca import NCAConfig, grow
+
+from mjregen.growth.networks import random_genomes
 
 
 def _time(fn, repeats: int) -> dict[str, float]:

@@ -13,7 +13,7 @@ def __getattr__(name: str):
 
         return getattr(grid, name)
     if name == "plugin_library":
-        from mjregen.physics.native import plugin_library
+        from mjregen.physics.voxel_plugin import plugin_library
 
         return plugin_library
     raise AttributeError(f"module 'mjregen' has no attribute {name!r}")

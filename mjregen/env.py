@@ -46,7 +46,7 @@ from dm_env import specs  # noqa: E402
 
 from mjregen.errors import MjregenError  # noqa: E402
 from mjregen.grid import Robot  # noqa: E402
-from mjregen.physics import native  # noqa: E402
+from mjregen.physics import voxel_plugin  # noqa: E402
 from mjregen.physics.compile import compile_robot  # noqa: E402
 from mjregen.physics.params import Physics  # noqa: E402
 from mjregen.physics.simulation import instability, inverse_speed_limits  # noqa: E402
@@ -198,7 +198,7 @@ def load(robot: Robot, *, physics: Physics | None = None, duration: float | None
     dt = compiled.timestep
     n_sub_steps = max(1, round(control_timestep / dt))
     n_steps = max(1, round(duration / (n_sub_steps * dt)))
-    native.library()  # the plugin, registered before dm_control compiles the XML
+    voxel_plugin.library()  # the plugin, registered before dm_control compiles the XML
     world = VoxelPhysics.from_xml_string(compiled.to_xml())
     task = Locomotion(dim=robot.dim, voxel_size=scene.voxel_size,
                       settle_steps=round(settle / dt), open_loop=open_loop,

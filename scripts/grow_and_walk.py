@@ -144,7 +144,8 @@ def run(args: argparse.Namespace) -> dict:
     from mjregen.tasks.fitness import locomotion_fitness
     from mjregen.physics.compile import compile_robot
     from mjregen.physics.simulation import simulate
-    from mjregen.render import record_walk, write_video
+    from mjregen.render import record_walk
+    from mjregen.video import write_video
 
     print(f"source: {source}")
     if states is not None:

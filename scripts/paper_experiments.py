@@ -33,6 +33,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from mjregen.experiments import paper as ex
+from mjregen.experiments import regrowth
 from mjregen.experiments import walkers as wk
 from mjregen.errors import MjregenError
 from mjregen.figures import regrowth_figures
@@ -97,7 +98,7 @@ def describe(args: argparse.Namespace, jobs: list[ex.EvolutionJob], regen: bool)
     if regen:
         walkers = wk.walkers_folder(args.root) / "walkers.json"
         if walkers.is_file():
-            for job in ex.regen_jobs(scale, wk.load_or_pick_walkers(args.root), root=args.root,
+            for job in regrowth.regen_jobs(scale, wk.load_or_pick_walkers(args.root), root=args.root,
                                      population=args.regen_pop, generations=args.regen_gens,
                                      nets=tuple(args.regen_net) if args.regen_net else None):
                 lines.append(job.command())
@@ -134,11 +135,11 @@ def run(args: argparse.Namespace) -> int:
         scale = ex.SCALES[args.scale]
         walkers = wk.load_or_pick_walkers(args.root)
         print(f"walkers: {', '.join(w['name'] + ' = ' + w['run'] + ' gen ' + str(w['generation']) for w in walkers)}")
-        for job in ex.regen_jobs(scale, walkers, root=args.root, population=args.regen_pop,
+        for job in regrowth.regen_jobs(scale, walkers, root=args.root, population=args.regen_pop,
                                  generations=args.regen_gens,
                                  nets=tuple(args.regen_net) if args.regen_net else None):
             print(job.command(), flush=True)
-            run = ex.run_regen_job(job, progress=not args.quiet)
+            run = regrowth.run_regen_job(job, progress=not args.quiet)
             if run is not None:
                 regrowth_figures(run.robots, run.regrowth.states[0], job.out)
     print(f"done in {time.perf_counter() - start:.0f} s; next: python scripts/ship_assets.py "

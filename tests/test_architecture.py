@@ -24,7 +24,7 @@ ROOT = Path(mjregen.__file__).parent
 # touches (the command line, rendering, figures, the dm_control environment).
 LAYERS = {
     "base": ("mjregen.errors", "mjregen.fileio", "mjregen.resources", "mjregen.interrupt",
-             "mjregen.native_cache", "mjregen.plotting"),
+             "mjregen.plugin_cache", "mjregen.plotting"),
     "grid": ("mjregen.grid",),
     "growth": ("mjregen.growth",),
     "physics": ("mjregen.physics",),
@@ -88,7 +88,7 @@ def module_graph() -> dict[str, set[str]]:
                     member = f"{node.module}.{alias.name}"
                     if member in files and name.startswith(node.module + "."):
                         # a package's own module importing a sibling through the package
-                        # (`from mjregen.physics import native` in mjregen.physics.compile):
+                        # (`from mjregen.physics import voxel_plugin` in mjregen.physics.compile):
                         # the package is being initialised; only the sibling is loaded
                         targets.append(member)
                     else:
@@ -131,7 +131,7 @@ def test_find_cycle_finds_one():
 
 def test_the_package_has_no_import_cycle():
     graph = module_graph()
-    assert "mjregen.physics.native" in graph["mjregen.physics.compile"]
+    assert "mjregen.physics.voxel_plugin" in graph["mjregen.physics.compile"]
     assert "mjregen.physics" not in graph["mjregen.physics.compile"]  # siblings only
     assert "mjregen.physics" in graph["mjregen.tasks.locomotion"]  # the package's own names
     assert find_cycle(graph) == []

@@ -75,14 +75,14 @@ def add_run_folder_arguments(parser: argparse.ArgumentParser, *, resume_help: st
     parser.set_defaults(resumable=True)
 
 
-PHYSICS = ("default", "paper", "sphere", "legacy")
+PHYSICS = ("default", "paper", "sphere", "box")
 
 
 def add_physics_choice(parser: argparse.ArgumentParser) -> None:
     """--physics (a preset), --bonds and --timestep-rule."""
     parser.add_argument("--physics", choices=PHYSICS,
                         help="'default' (the default) = 'paper': the paper engine's physics in "
-                             "the voxel plugin (docs/fidelity.md); 'sphere' or 'legacy': the "
+                             "the voxel plugin (docs/fidelity.md); 'sphere' or 'box': the "
                              "pure-MuJoCo pipeline (MuJoCo tendons and contacts, no C "
                              "compiler needed; mjregen.physics.presets)")
     parser.add_argument("--bonds", choices=("tendons", "beam"),
@@ -109,9 +109,9 @@ def add_physics_arguments(parser: argparse.ArgumentParser) -> None:
 def physics_from_args(args: argparse.Namespace):
     """The `Physics` that --physics, --bonds, --timestep-rule and --settle describe, with
     --duration checked too (before any work starts)."""
-    from mjregen.physics import Physics, legacy_physics, paper_physics, sphere_physics
+    from mjregen.physics import Physics, box_physics, paper_physics, sphere_physics
 
-    presets = {"paper": paper_physics, "sphere": sphere_physics, "legacy": legacy_physics}
+    presets = {"paper": paper_physics, "sphere": sphere_physics, "box": box_physics}
     physics = presets.get(args.physics, Physics)()
     if args.bonds is not None:
         if physics.pipeline.name != "voxel":

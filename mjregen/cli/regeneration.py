@@ -46,7 +46,7 @@ def add_regen(subparsers: argparse._SubParsersAction) -> None:
 def _regen(args: argparse.Namespace) -> int:
     from mjregen.experiments.regrowth import regrowth_source, run_regrowth
     from mjregen.figures import regrowth_figures
-    from mjregen.render import walk_videos
+    from mjregen.video import walk_videos
 
     physics = physics_from_args(args)  # the walking settings, checked before the GA runs
     source = regrowth_source(robot=args.robot, checkpoint=args.checkpoint, paper=args.paper)

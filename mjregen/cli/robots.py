@@ -161,7 +161,7 @@ def _finite_or_none(value):
 
 
 def add_export(subparsers: argparse._SubParsersAction) -> None:
-    from mjregen.native_cache import library_path
+    from mjregen.plugin_cache import library_path
 
     parser = subparsers.add_parser(
         "export",
@@ -172,7 +172,7 @@ def add_export(subparsers: argparse._SubParsersAction) -> None:
         "settle, so plain MuJoCo walks the robot with mj_step alone, after loading the "
         f"plugin library once: mujoco.mj_loadPluginLibrary('{library_path()}') (built on "
         "first use; mjregen.plugin_library() returns the path). With --physics sphere or "
-        "legacy (pure MuJoCo) the muscles' tendons are the first ones in the file and their "
+        "box (pure MuJoCo) the muscles' tendons are the first ones in the file and their "
         "rest lengths are rewritten every step by mjregen.physics.simulation.Simulation.",
     )
     parser.add_argument("robot", type=Path, help="robot file (.npy)")
@@ -228,7 +228,8 @@ def add_render(subparsers: argparse._SubParsersAction) -> None:
 
 def _render(args: argparse.Namespace) -> int:
     from mjregen.physics.compile import compile_robot
-    from mjregen.render import View, record_walk, write_frames, write_video
+    from mjregen.render import View, record_walk
+    from mjregen.video import write_frames, write_video
 
     robot = Robot.load(args.robot)
     if robot.is_empty:

@@ -1,15 +1,25 @@
 """A regrowth run as one library call (what `mjregen regen` runs): damage a robot's CA
 state, evolve a second NCA that regrows it (fitness: cells equal to the original, as in the
-paper), then walk the original, damaged and regrown robots (the paper's Table 1)."""
+paper), then walk the original, damaged and regrown robots (the paper's Table 1). And the
+paper's regrowth experiment as jobs: each picked walker, network and seed one run folder
+``<root>/regen_<walker>_<net>/seed_<n>``."""
 
 from __future__ import annotations
 
+import shlex
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from mjregen.errors import MjregenError
+from mjregen.experiments.paper import (
+    CONDITIONS,
+    DEFAULT_ROOT,
+    Scale,
+    read_run,
+    scaled_ga,
+)
 from mjregen.experiments.recovery import RecoveryReport, measure_recovery, write_report
 from mjregen.grid import Robot
 from mjregen.growth.checkpoint import load_nca
@@ -137,3 +147,79 @@ def run_regrowth(*, source: RegrowthSource, out: str | Path, damage: str | None 
     report = measure_recovery(robots, physics=physics, duration=duration)
     write_report(report, out, name=name or Path(source.label).stem)
     return RegrowthRun(summary, robots, regrowth, report)
+
+
+@dataclass(frozen=True)
+class RegenJob:
+    """One regrowth run: a walker, a regrowth network, a seed and the regen GA."""
+
+    walker: str
+    checkpoint: Path
+    net: str
+    seed: int
+    out: Path
+    ga: GAConfig
+    settle: float | None
+    duration: float | None
+
+    def argv(self) -> list[str]:
+        """Arguments of the equivalent `mjregen regen` command (it writes the same folder)."""
+        ga = self.ga
+        args = ["regen", "--checkpoint", str(self.checkpoint), "--net", self.net,
+                "--pop", str(ga.population), "--gens", str(ga.generations),
+                "--truncation", str(ga.truncation), "--elites", str(ga.elites),
+                "--sigma", f"{ga.sigma:g}", "--seed", str(self.seed)]
+        if self.settle is not None:
+            args += ["--settle", f"{self.settle:g}"]
+        if self.duration is not None:
+            args += ["--duration", f"{self.duration:g}"]
+        return args + ["--no-video", "--out", str(self.out)]
+
+    def command(self) -> str:
+        return "mjregen " + shlex.join(self.argv())
+
+    @property
+    def complete(self) -> bool:
+        """Finished and its recovery measured."""
+        if not (self.out / "recovery.json").is_file():
+            return False
+        return read_run(self.out).complete
+
+
+def regen_folder(root: str | Path, walker: str, net: str, seed: int) -> Path:
+    """``<root>/regen_<walker>_<net>/seed_<seed>``."""
+    return Path(root) / f"regen_{walker}_{net}" / f"seed_{seed}"
+
+
+def regen_jobs(scale: Scale, walkers: list[dict], *, root: str | Path = DEFAULT_ROOT,
+               population: int | None = None, generations: int | None = None,
+               nets: tuple[str, ...] | None = None) -> list[RegenJob]:
+    """The regrowth runs of `scale` for `walkers` (from `mjregen.experiments.walkers.load_or_pick_walkers`)."""
+    ga = scaled_ga(PRESETS["regen"], population or scale.regen_population,
+                   generations or scale.regen_generations)
+    jobs = []
+    for walker in walkers:
+        for net in nets or scale.regen_nets or (CONDITIONS[walker["condition"]].kind,):
+            for seed in range(scale.regen_runs):
+                jobs.append(RegenJob(walker["name"], Path(walker["npz"]), net, seed,
+                                     regen_folder(root, walker["name"], net, seed), ga,
+                                     None if scale.settle is None else scale.settle[3],
+                                     scale.duration(3)))
+    return jobs
+
+
+def run_regen_job(job: RegenJob, *, progress: bool = True):
+    """Run (or resume) one regrowth (`mjregen.experiments.regrowth.run_regrowth`, the same
+    folder as the job's printed `mjregen regen` command, pictures and videos aside): returns
+    its `RegrowthRun`, or None for a finished job, which is left alone.
+
+    Raises:
+      mjregen.search.runs.RunFolderError: the folder holds a run with other settings.
+    """
+    if job.complete:
+        return None
+    physics = Physics() if job.settle is None else Physics().replace(settle_time=job.settle)
+    return run_regrowth(source=regrowth_source(checkpoint=job.checkpoint), out=job.out,
+                        net=job.net, ga=job.ga, seed=job.seed, physics=physics,
+                        duration=job.duration, resume=(job.out / "config.json").is_file(),
+                        progress=progress)

@@ -17,19 +17,19 @@ import numpy as np
 
 from mjregen.errors import CompileError, PhysicsParameterError
 from mjregen.grid import Robot
-from mjregen.physics import mjcf, native, timestep
+from mjregen.physics import mjcf, voxel_plugin, timestep
 from mjregen.physics.model import (
     BeamTable,
-    BondTable,
-    MuscleTendons,
     RobotLayout,
     bond_tables,
     engine_floor_constants,
     robot_layout,
-    round_like_mjcf,
     voxel_name,
 )
-from mjregen.physics.params import Physics, VoxelPipeline
+from mjregen.physics.params import Physics
+from mjregen.physics.pipelines import VoxelPipeline
+from mjregen.physics.rounding import round_like_mjcf
+from mjregen.physics.tendons import BondTable, MuscleTendons
 
 
 @dataclass(frozen=True)
@@ -125,7 +125,7 @@ def compile_robot(
                           elevation)
     table, beams, muscles, max_k_per_m = bond_tables(layout, physics)
     if pipeline == "voxel":
-        native.library()  # registers the plugin with MuJoCo
+        voxel_plugin.library()  # registers the plugin with MuJoCo
     spec, bodies = mjcf.voxel_bodies(layout, physics)
     if pipeline == "voxel":
         mjcf.add_voxel_plugin(spec, layout, physics, table, beams, drive)
@@ -154,11 +154,11 @@ def _network_rates(model: mujoco.MjModel, layout: RobotLayout, physics: Physics,
     model with its tendons, floor off (its contacts are not the engine floor)."""
     scene, pipeline = physics.scene, physics.pipeline
     if pipeline.name != "voxel":
-        if not native.available():
+        if not voxel_plugin.available():
             raise PhysicsParameterError(
                 "timestep_rule 'network' computes the step from the voxel plugin's bond "
                 "forces, whose library needs a C compiler; use timestep_rule 'stiffest_bond' "
-                "(sphere_physics() and legacy_physics() do)")
+                "(sphere_physics() and box_physics() do)")
         physics = physics.replace(pipeline=VoxelPipeline(
             bond_element="tendons", bond_model=pipeline.bond_model, collision_radius=0.0),
             floor=False)

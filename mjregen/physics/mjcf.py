@@ -23,20 +23,21 @@ import mujoco
 import numpy as np
 
 from mjregen.grid import Material
-from mjregen.physics import native
+from mjregen.physics import voxel_plugin
 from mjregen.physics.model import (
     BeamTable,
-    BondTable,
     RobotLayout,
     collision_constants,
     drag_viscosity,
     engine_floor_constants,
     near_pairs,
-    round_like_mjcf,
     voxel_drag,
     voxel_name,
 )
-from mjregen.physics.params import POINT_RADIUS, Physics
+from mjregen.physics.params import Physics
+from mjregen.physics.pipelines import POINT_RADIUS
+from mjregen.physics.rounding import round_like_mjcf
+from mjregen.physics.tendons import BondTable
 
 FLOOR = "floor"
 POINT_FLOOR = "floor_centres"  # contact_shape "point": the plane that voxel centres touch
@@ -141,11 +142,11 @@ def add_voxel_plugin(spec: mujoco.MjSpec, layout: RobotLayout, physics: Physics,
                       tendon_stiffness=_numbers(table.stiffness),
                       tendon_damping=_numbers(table.damping), tendon_rest=_numbers(table.rest),
                       tendon_lateral2=_numbers(table.lateral ** 2))
-    unknown = set(config) - set(native.ATTRIBUTES)
+    unknown = set(config) - set(voxel_plugin.ATTRIBUTES)
     if unknown:
         raise AssertionError(f"voxel plugin attributes unknown to the plugin: {sorted(unknown)}")
-    spec.activate_plugin(native.PLUGIN_NAME)
-    instance = spec.add_plugin(name=PLUGIN_INSTANCE, plugin_name=native.PLUGIN_NAME, active=True)
+    spec.activate_plugin(voxel_plugin.PLUGIN_NAME)
+    instance = spec.add_plugin(name=PLUGIN_INSTANCE, plugin_name=voxel_plugin.PLUGIN_NAME, active=True)
     instance.config = config
     if drive == "ctrl":
         spec.worldbody.add_site(name="muscles", size=[L / 10, 0.0, 0.0], group=4)

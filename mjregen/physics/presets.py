@@ -4,13 +4,8 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from mjregen.physics.params import (
-    MujocoPipeline,
-    Physics,
-    Scene,
-    VoxelPipeline,
-    paper_materials,
-)
+from mjregen.physics.params import Physics, Scene, paper_materials
+from mjregen.physics.pipelines import MujocoPipeline, VoxelPipeline
 
 
 def paper_physics() -> Physics:
@@ -45,7 +40,7 @@ def sphere_physics() -> Physics:
                                            contact_damping=1.2))
 
 
-def legacy_physics() -> Physics:
+def box_physics() -> Physics:
     """Pure MuJoCo with box contacts of solref (0.3 ms, 1), friction 0.5, bond damping ratio
     1, no drag, no self-collision, Timoshenko tendon bonds, the stiffest-bond time step."""
     materials = {m: replace(p, friction=0.5) for m, p in paper_materials().items()}

@@ -23,9 +23,9 @@ from numpy.typing import ArrayLike
 from mjregen.errors import PhysicsParameterError
 from mjregen.grid import Robot
 from mjregen.physics.compile import CompiledRobot, compile_robot
-from mjregen.physics.model import MuscleTendons
 from mjregen.physics.params import Physics
 from mjregen.physics.stepper import NativeStepper, unsupported_on
+from mjregen.physics.tendons import MuscleTendons
 from mjregen.physics.timestep import rotational_dofs
 
 RUNAWAY_SPEED = 5000.0  # voxel lengths per second (5 m/s at 1 mm; walkers reach ~0.3 m/s)

@@ -9,7 +9,7 @@ force-producing actuators, constraints or fluid) those equations reduce to a con
 diagonal mass matrix and a constant gravity force, which ``plugin/step.c`` integrates
 exactly like ``mj_step`` with the Euler integrator (same order, same quaternion update,
 the plugin's forces and state advance, the same bad-value warnings), to rounding
-(tests/test_stepping.py); a step with a bad value is not taken. During a call the state
+(tests/physics/test_stepping.py); a step with a bad value is not taken. During a call the state
 lives in the plugin's arrays (rows per quantity, so that the per-voxel loops vectorise);
 ``qpos``, ``qvel``, ``qacc`` and ``qfrc_passive`` are written at its end.
 
@@ -28,7 +28,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from mjregen.physics import native
+from mjregen.physics import voxel_plugin
 
 _FREE, _SLIDE, _HINGE = (int(mujoco.mjtJoint.mjJNT_FREE), int(mujoco.mjtJoint.mjJNT_SLIDE),
                          int(mujoco.mjtJoint.mjJNT_HINGE))
@@ -100,7 +100,7 @@ class NativeStepper:
         if reason:
             raise ValueError(f"the native stepper cannot step this model: {reason}")
         self._model, self._data, self._instance = model, data, instance
-        self._library = native.library()
+        self._library = voxel_plugin.library()
         _check_against_mujoco(model, data)
 
     def step(self, n_steps: int, com: np.ndarray | None = None) -> int:
@@ -137,7 +137,7 @@ def unsupported_on(model: mujoco.MjModel, data: mujoco.MjData, instance: int) ->
     reason = unsupported(model)
     if reason:
         return reason
-    done = native.library().mjr_step(model._address, data._address, instance, 0, None)
+    done = voxel_plugin.library().mjr_step(model._address, data._address, instance, 0, None)
     return _STEP_ERRORS.get(done, "")
 
 
@@ -146,7 +146,7 @@ def _check_against_mujoco(model: mujoco.MjModel, data: mujoco.MjData) -> None:
     MuJoCo's M and −qfrc_bias at `data`'s configuration, at rest. M is tested as
     M·x = diag∘x for two vectors (any off-diagonal entry breaks one of them)."""
     inv_mass, gravity = np.zeros(model.nv), np.zeros(model.nv)
-    native.library().mjr_step_masses(model._address, inv_mass.ctypes.data, gravity.ctypes.data)
+    voxel_plugin.library().mjr_step_masses(model._address, inv_mass.ctypes.data, gravity.ctypes.data)
     probe = mujoco.MjData(model)
     probe.qpos[:] = data.qpos
     mujoco.mj_forward(model, probe)

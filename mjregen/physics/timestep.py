@@ -29,7 +29,7 @@ import mujoco
 import numpy as np
 
 from mjregen.errors import PhysicsParameterError
-from mjregen.physics import native
+from mjregen.physics import voxel_plugin
 from mjregen.physics.params import Physics
 
 LANCZOS_STEPS = 40
@@ -55,7 +55,7 @@ class _NetworkForces:
         self.model = model
         self.data = mujoco.MjData(model)
         self.instance = instance
-        self._library = native.library()
+        self._library = voxel_plugin.library()
         self.q0 = model.qpos0.copy()
         self.mass = np.zeros(model.nv)
         mujoco.mj_forward(model, self.data)  # the mass matrix

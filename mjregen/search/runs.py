@@ -214,6 +214,30 @@ def plot_fitness(rows: list[dict], path: Path, title: str) -> None:
     save_png(figure, path)
 
 
+def _save_best(stem: Path, config: NCAConfig, genome: np.ndarray, result: PopulationEvaluation,
+               top: int, *, generation: int, seed: int) -> None:
+    """A generation's best NCA (``stem.npz``, with its fitness and details) and robot
+    (``stem.npy``)."""
+    metadata = {"generation": generation, "fitness": float(result.fitness[top]), "seed": seed,
+                **{name: float(values[top]) for name, values in result.details.items()}}
+    save_nca(stem.with_suffix(".npz"), NCA(config, genome), metadata=metadata, overwrite=True)
+    Robot(result.grids[top]).save(stem.with_suffix(".npy"), overwrite=True)
+
+
+def _metrics_row(result: PopulationEvaluation, *, generation: int, wall: float,
+                 elapsed: float) -> dict:
+    """A generation's metrics.csv row (`METRICS`)."""
+    fitness = result.fitness
+    return {
+        "generation": generation, "best": f"{fitness.max():.6g}", "mean": f"{fitness.mean():.6g}",
+        "median": f"{np.median(fitness):.6g}", "std": f"{fitness.std():.6g}",
+        "unstable": int(np.count_nonzero(~result.stable & ~result.failed)),
+        "failed": int(np.count_nonzero(result.failed)), "distinct": result.n_distinct,
+        "evaluations": len(fitness), "evals_per_s": f"{len(fitness) / wall:.4g}",
+        "wall_time": f"{wall:.4g}", "elapsed": f"{elapsed:.6g}",
+    }
+
+
 def run_evolution(
     task: Task,
     ga_config: GAConfig,
@@ -278,28 +302,17 @@ def run_evolution(
                 f"every evaluation of generation {generation} failed, e.g. {result.errors[0]} "
                 f"(tracebacks in {out / 'errors.log'}); the run stops, its checkpoint holds "
                 "the last good generation")
-        ranking = ga.tell(result.fitness)
-        top = int(ranking[0])
+        top = int(ga.tell(result.fitness)[0])
         if result.fitness[top] > best["best_fitness"]:
             best = {"best_fitness": float(result.fitness[top]), "best_generation": generation,
                     "best_genome": population[top]}
-        stem = out / "best" / f"gen_{generation:04d}"
-        metadata = {"generation": generation, "fitness": float(result.fitness[top]), "seed": seed,
-                    **{name: float(values[top]) for name, values in result.details.items()}}
-        save_nca(stem.with_suffix(".npz"), NCA(task.nca, population[top]), metadata=metadata, overwrite=True)
-        Robot(result.grids[top]).save(stem.with_suffix(".npy"), overwrite=True)
+        _save_best(out / "best" / f"gen_{generation:04d}", task.nca, population[top], result,
+                   top, generation=generation, seed=seed)
         wall = time.perf_counter() - start
         elapsed += wall
-        fitness = result.fitness
-        rows.append({
-            "generation": generation, "best": f"{fitness.max():.6g}", "mean": f"{fitness.mean():.6g}",
-            "median": f"{np.median(fitness):.6g}", "std": f"{fitness.std():.6g}",
-            "unstable": int(np.count_nonzero(~result.stable & ~result.failed)),
-            "failed": int(np.count_nonzero(result.failed)), "distinct": result.n_distinct,
-            "evaluations": len(fitness), "evals_per_s": f"{len(fitness) / wall:.4g}",
-            "wall_time": f"{wall:.4g}", "elapsed": f"{elapsed:.6g}",
-        })
+        rows.append(_metrics_row(result, generation=generation, wall=wall, elapsed=elapsed))
         _write_metrics(out / "metrics.csv", rows)
+        fitness = result.fitness
         if time.perf_counter() - last_plot > PLOT_EVERY or ga.generation == ga_config.generations:
             plot_fitness(rows, out / "fitness.png", title=out.name)
             last_plot = time.perf_counter()

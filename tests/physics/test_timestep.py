@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from mjregen.grid import Material, Robot
-from mjregen.physics import MujocoPipeline, Physics, PhysicsParameterError, native
+from mjregen.physics import MujocoPipeline, Physics, PhysicsParameterError, voxel_plugin
 from mjregen.physics.compile import compile_robot
 from mjregen.physics.simulation import simulation_of
 from mjregen.physics.timestep import (
@@ -20,7 +20,7 @@ from mjregen.physics.timestep import (
     strain_stiffening,
 )
 
-pytestmark = pytest.mark.skipif(not native.available(),
+pytestmark = pytest.mark.skipif(not voxel_plugin.available(),
                                 reason="no C compiler for the voxel plugin")
 
 NETWORK = Physics().replace(timestep_rule="network")
@@ -161,9 +161,9 @@ def test_without_a_compiler_the_network_rule_says_so_and_the_mujoco_presets_stil
     from mjregen.physics import NativeBuildError, sphere_physics
 
     # a process without the plugin library and without a C compiler to build it
-    monkeypatch.setattr(native, "_library", None)
-    monkeypatch.setattr(native, "library_path", lambda: tmp_path / "missing.so")
-    monkeypatch.setattr(native, "_compiler", lambda: None)
+    monkeypatch.setattr(voxel_plugin, "_library", None)
+    monkeypatch.setattr(voxel_plugin, "library_path", lambda: tmp_path / "missing.so")
+    monkeypatch.setattr(voxel_plugin, "_compiler", lambda: None)
     robot = Robot.box((2, 2, 2), Material.SOFT)
     with pytest.raises(NativeBuildError, match="C compiler"):
         compile_robot(robot, physics=NETWORK)  # the voxel pipeline needs the plugin
@@ -184,7 +184,7 @@ def test_compiled_robot_reports_the_rates_behind_its_step():
     timestep_safety × stable_step(λ, μ) (rounded like MJCF). With the default bond damping
     (ζ = 0.4 per bond, stiffness-proportional: C = βK) the fastest mode is overdamped
     (μ > 2√λ): a mode's damping ratio grows with its frequency."""
-    from mjregen.physics.model import round_like_mjcf
+    from mjregen.physics.rounding import round_like_mjcf
 
     compiled = compile_robot(Robot.box((3, 3, 3)),
                              physics=NETWORK)

@@ -18,16 +18,12 @@ from mjregen.physics.simulation import simulate
 from mjregen.render import (
     GLBackendError,
     RobotRenderer,
-    VideoError,
     View,
-    find_ffmpeg,
-    read_video,
     record_walk,
     select_gl_backend,
     walk_frame_count,
-    write_frames,
-    write_video,
 )
+from mjregen.video import VideoError, find_ffmpeg, read_video, write_frames, write_video
 
 SMALL = View(width=160, height=120)
 
@@ -166,7 +162,7 @@ def test_bad_views_are_rejected(kwargs, problem):
 
 
 def test_recorded_walk_is_the_simulated_walk():
-    robot = Robot.load(Path(__file__).parents[1] / "assets/robots/bimorph_walker_3d.npy")
+    robot = Robot.load(Path(__file__).parents[2] / "assets/robots/bimorph_walker_3d.npy")
     compiled = compile_robot(robot)
     walk = record_walk(compiled, duration=0.02, fps=20, slowdown=10)
     result = simulate(robot, duration=0.02, record=True)
@@ -180,7 +176,7 @@ def test_recorded_walk_is_the_simulated_walk():
 
 def test_video_has_the_frames_and_is_not_overwritten(backend, tmp_path):
     compiled = compile_robot(Robot.load(
-        Path(__file__).parents[1] / "assets/robots/bimorph_walker_3d.npy"))
+        Path(__file__).parents[2] / "assets/robots/bimorph_walker_3d.npy"))
     walk = record_walk(compiled, duration=0.05, fps=10, slowdown=5)
     path = write_video(compiled, walk.qpos, tmp_path / "walk.mp4", fps=10, view=SMALL,
                        progress=False, backend=backend)

@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 
 from mjregen.grid import Robot
-from mjregen.physics import Physics, PhysicsParameterError, native
+from mjregen.physics import Physics, PhysicsParameterError, voxel_plugin
 from mjregen.physics.compile import compile_robot
 from mjregen.physics.simulation import simulation_of
 
-pytestmark = pytest.mark.skipif(not native.available(),
+pytestmark = pytest.mark.skipif(not voxel_plugin.available(),
                                 reason="no C compiler for the voxel plugin")
 
 SLAB = np.ones((4, 3, 2), dtype=np.int8)
@@ -23,7 +23,7 @@ SLAB[:, :, 0] = np.where(np.arange(4)[:, None] % 2 == 0, 3, 4)
 SLAB[1, 1, 1] = 2
 # what both pipelines compute alike: tendon bonds, muscles and drag (the plugin's "stokes"
 # drag is MuJoCo's viscosity on the voxel's box); the engine floor and the plugin's self-collision
-# have no MuJoCo twin (tests/test_engine_floor.py)
+# have no MuJoCo twin (tests/physics/test_engine_floor.py)
 TENDONS = Physics().replace(bond_element="tendons", floor=False, collision_radius=0.0,
                             drag_law="stokes")
 
@@ -191,5 +191,5 @@ def test_a_compiler_without_march_native_builds_the_generic_library(tmp_path, mo
     wrapper.chmod(0o755)
     monkeypatch.setenv("CC", str(wrapper))
     monkeypatch.setenv("MJREGEN_CACHE", str(tmp_path / "cache"))
-    path = native.plugin_library()
+    path = voxel_plugin.plugin_library()
     assert path.is_file() and path.parent == tmp_path / "cache"

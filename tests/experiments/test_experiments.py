@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from mjregen.experiments import paper as ex
+from mjregen.experiments import regrowth
 from mjregen.experiments import walkers as wk
 from mjregen.growth.checkpoint import load_nca, save_nca
 from mjregen.cli import main as mjregen_main
@@ -21,7 +22,7 @@ from mjregen.physics.simulation import simulate
 from mjregen.search.runs import METRICS, RunFolderError
 from mjregen.tasks.locomotion import LocomotionTask
 
-SCRIPTS = Path(__file__).resolve().parents[1] / "scripts"
+SCRIPTS = Path(__file__).resolve().parents[2] / "scripts"
 SMOKE = ex.SCALES["smoke"]
 
 
@@ -141,8 +142,8 @@ def results(tmp_path_factory) -> Path:
         with (run / "metrics.csv").open("w") as handle:
             handle.write(",".join(METRICS) + "\n")
             handle.writelines(",".join(str(r[k]) for k in METRICS) + "\n" for r in rows)
-    job, = ex.regen_jobs(SMOKE, wk.load_or_pick_walkers(root)[:1], root=root)
-    assert ex.run_regen_job(job, progress=False) is not None  # regrowth of the first walker
+    job, = regrowth.regen_jobs(SMOKE, wk.load_or_pick_walkers(root)[:1], root=root)
+    assert regrowth.run_regen_job(job, progress=False) is not None  # regrowth of the first walker
     return root
 
 
@@ -161,10 +162,10 @@ def test_list_runs_and_walkers(results):
 
 def test_regrowth_job_writes_recovery(results):
     walkers = wk.load_or_pick_walkers(results)
-    job, = ex.regen_jobs(SMOKE, walkers[:1], root=results)
+    job, = regrowth.regen_jobs(SMOKE, walkers[:1], root=results)
     assert job.net == "ff" and job.out == results / "regen_walker_1_ff" / "seed_0"
     assert job.complete  # run by the fixture; running it again is a no-op
-    assert ex.run_regen_job(job, progress=False) is None  # finished: left alone
+    assert regrowth.run_regen_job(job, progress=False) is None  # finished: left alone
     report = json.loads((job.out / "recovery.json").read_text())
     assert report["grid_cells"] == 729 and job.complete
     assert ex.list_regen_runs(results) == [("walker_1", "ff", job.out)]

@@ -12,12 +12,12 @@ import pytest
 
 from mjregen.tasks.fitness import UNSTABLE_FITNESS, locomotion_fitness
 from mjregen.grid import Robot
-from mjregen.physics import Physics, PhysicsParameterError, native
+from mjregen.physics import Physics, PhysicsParameterError, voxel_plugin
 from mjregen.physics.compile import compile_robot
 from mjregen.physics.simulation import Simulation, simulate, simulation_of
 from mjregen.physics.stepper import NativeStepper, unsupported
 
-pytestmark = pytest.mark.skipif(not native.available(),
+pytestmark = pytest.mark.skipif(not voxel_plugin.available(),
                                 reason="no C compiler for the voxel plugin")
 
 SLAB = np.ones((4, 3, 2), dtype=np.int8)
@@ -210,7 +210,7 @@ def test_bad_state_stops_and_is_reported_unstable():
 def test_descriptions_without_a_stepper_replay_with_mj_step():
     """A format-1 description written before the native stepper (the shipped walkers'):
     the voxel pipeline with ``mj_step``, as it was evaluated."""
-    manifest = Path(__file__).resolve().parents[1] / "assets" / "nca" / "manifest.json"
+    manifest = Path(__file__).resolve().parents[2] / "assets" / "nca" / "manifest.json"
     old = json.loads(manifest.read_text())["walker_3d.npz"]["evaluation"]["physics"]
     assert "format" not in old and "stepper" not in old["scene"]
     physics = Physics.from_dict(old)

@@ -18,7 +18,7 @@ from mjregen.physics import Physics
 from mjregen.physics.compile import compile_robot
 from mjregen.physics.simulation import simulate
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 SCRIPT = ROOT / "scripts" / "grow_and_walk.py"
 SHIPPED = ROOT / "assets" / "nca" / "walker_3d.npz"
 P, M, S = Material.MUSCLE_PLUS, Material.MUSCLE_MINUS, Material.SOFT

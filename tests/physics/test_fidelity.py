@@ -8,7 +8,7 @@ the robots' paths in `mjregen.physics.reference.ENGINE_PATHS` (shipped).
 import numpy as np
 import pytest
 
-from mjregen.physics import Physics, legacy_physics, paper_physics, sphere_physics
+from mjregen.physics import Physics, box_physics, paper_physics, sphere_physics
 from mjregen.physics.reference import (CASES, REFERENCE, engine_path, heading_of,
                                path_difference)
 
@@ -18,7 +18,7 @@ def test_paper_preset_is_the_default_and_round_trips():
     assert Physics.from_dict(physics.to_dict()) == physics
     assert physics.pipeline.name == "voxel" and physics.scene.drag_ratio == 0.001
     assert physics == Physics()
-    assert sphere_physics() != physics and legacy_physics() != physics
+    assert sphere_physics() != physics and box_physics() != physics
 
 
 @pytest.mark.parametrize("case", ["slide_bar_v0.2", "slide_bar_v0.1"])

@@ -8,7 +8,8 @@ import torch
 
 from mjregen.search.ga import GAConfig, GeneticAlgorithm
 from mjregen.grid import Robot
-from mjregen.growth.nca import NCA, CellNetwork, NCAConfig, network_to_genome, random_genomes
+from mjregen.growth.nca import NCA, NCAConfig
+from mjregen.growth.networks import CellNetwork, network_to_genome, random_genomes
 from mjregen.search.backends import SerialBackend
 from mjregen.tasks.regrowth import (
     RegrowthTask,

@@ -13,7 +13,8 @@ from mjregen.tasks.fitness import (
     locomotion_fitness,
 )
 from mjregen.grid import Material
-from mjregen.growth.nca import NCAConfig, grow, random_genomes
+from mjregen.growth.nca import NCAConfig, grow
+from mjregen.growth.networks import random_genomes
 from mjregen.search.backends import ProcessBackend, SerialBackend, ThreadBackend, make_backend
 from mjregen.physics import Physics
 from mjregen.physics.simulation import simulate

@@ -18,7 +18,7 @@ from mjregen.physics import Physics, PhysicsParameterError
 from mjregen.physics.compile import compile_robot
 from mjregen.physics.simulation import simulate, simulation_of
 
-ROBOTS = Path(__file__).resolve().parents[1] / "assets" / "robots"
+ROBOTS = Path(__file__).resolve().parents[2] / "assets" / "robots"
 
 
 @pytest.fixture(scope="module")

@@ -14,7 +14,7 @@ import pytest
 
 import mjregen
 from mjregen.grid import Material, Robot
-from mjregen.physics import Physics, legacy_physics, paper_physics, sphere_physics
+from mjregen.physics import Physics, box_physics, paper_physics, sphere_physics
 from mjregen.physics.compile import compile_robot
 from mjregen.physics.simulation import Simulation, simulate, simulation_of
 
@@ -94,7 +94,7 @@ def test_exported_model_steps_like_simulate(preset, dim, tmp_path):
     assert np.max(np.abs(sim.data.qpos - compiled.model.qpos0)) > 1e-5  # it moved
 
 
-@pytest.mark.parametrize("physics", [sphere_physics(), legacy_physics()], ids=["sphere", "legacy"])
+@pytest.mark.parametrize("physics", [sphere_physics(), box_physics()], ids=["sphere", "box"])
 @pytest.mark.parametrize("dim", [2, 3])
 def test_pure_mujoco_presets_export_their_model(physics, dim):
     """The pure-MuJoCo pipeline's file is its model (tendons, contacts; muscles are its

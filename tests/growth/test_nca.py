@@ -10,14 +10,10 @@ import torch
 from mjregen.growth.checkpoint import load_nca, save_nca
 from mjregen.errors import CheckpointError, InvalidGenomeError
 from mjregen.grid import Material, clean_grids
-from mjregen.growth.nca import (
-    CHUNK,
-    NCA,
-    CAState,
+from mjregen.growth.nca import CHUNK, NCA, CAState, NCAConfig, grow
+from mjregen.growth.networks import (
     CellNetwork,
-    NCAConfig,
     PopulationNetworks,
-    grow,
     network_to_genome,
     random_genomes,
 )

@@ -12,11 +12,11 @@ import numpy as np
 import pytest
 
 from mjregen.grid import Robot
-from mjregen.physics import Physics, PhysicsParameterError, VoxelPipeline, mjcf, native
+from mjregen.physics import Physics, PhysicsParameterError, VoxelPipeline, mjcf, voxel_plugin
 from mjregen.physics.compile import compile_robot
 from mjregen.physics.simulation import simulation_of
 
-pytestmark = pytest.mark.skipif(not native.available(),
+pytestmark = pytest.mark.skipif(not voxel_plugin.available(),
                                 reason="the engine floor is computed by the voxel plugin")
 
 L, M, G = 1e-3, 1e-3, 27.468

@@ -9,7 +9,7 @@ import pytest
 from mjregen.errors import GridFileError, InvalidGridError
 from mjregen.grid import Material, Robot, clean_grids
 
-PAPER_ROBOTS = Path(__file__).resolve().parents[1] / "assets" / "robots" / "paper"
+PAPER_ROBOTS = Path(__file__).resolve().parents[2] / "assets" / "robots" / "paper"
 
 
 def _grid3(*voxels: tuple[int, int, int], size: int = 9, code: int = 1) -> np.ndarray:

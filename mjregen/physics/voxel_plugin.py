@@ -30,7 +30,7 @@ from pathlib import Path
 import mujoco
 
 from mjregen.errors import MjregenError
-from mjregen.native_cache import (FLAGS, PLUGIN_FILES, PLUGIN_SOURCES, library_path,
+from mjregen.plugin_cache import (FLAGS, PLUGIN_FILES, PLUGIN_SOURCES, library_path,
                                   mujoco_libraries)
 
 PLUGIN_NAME = "mjregen.voxels"

@@ -20,7 +20,7 @@ from mjregen.physics.compile import compile_robot
 from mjregen.physics.simulation import simulation_of
 
 _SPEC = importlib.util.spec_from_file_location(
-    "accuracy_benchmark", Path(__file__).resolve().parents[1] / "benchmarks" / "accuracy.py")
+    "accuracy_benchmark", Path(__file__).resolve().parents[2] / "benchmarks" / "accuracy.py")
 accuracy = importlib.util.module_from_spec(_SPEC)
 sys.modules[_SPEC.name] = accuracy  # dataclasses look their module up there
 _SPEC.loader.exec_module(accuracy)
@@ -36,7 +36,7 @@ def CANTILEVER_RUN(dt: float, integrator: str) -> Run:
     """A 3-voxel hard cantilever clamped at one end, floor off, released under gravity:
     a smooth ODE (no contacts, no muscles), so each integrator shows its textbook order.
     Tendon bonds and Stokes drag: Euler steps them in the voxel plugin, RK4 as MuJoCo's
-    tendons and viscosity, the same ODE (tests/test_native.py; beams differ from tendons by
+    tendons and viscosity, the same ODE (tests/physics/test_plugin.py; beams differ from tendons by
     a third of Euler's error)."""
     robot = Robot.box((3, 1, 1), Material.HARD)
     return Run(robot, Physics().replace(floor=False, bond_element="tendons", drag_law="stokes"),

@@ -13,7 +13,7 @@ from mjregen.physics import MaterialProperties, Physics, PhysicsParameterError
 from mjregen.physics.compile import compile_robot
 from mjregen.physics.simulation import Simulation
 
-ROBOTS = Path(__file__).resolve().parents[1] / "assets" / "robots"
+ROBOTS = Path(__file__).resolve().parents[2] / "assets" / "robots"
 L = 1e-3
 
 
@@ -166,7 +166,7 @@ def test_timestep_from_stiffest_bond_present():
                               bond_damping_ratio=0.4)
     soft, hard, lone = (compile_robot(Robot.from_body(body.astype(np.int8)), physics=limit)
                         for body in (np.ones((2, 1, 1)), np.full((2, 1, 1), 2), np.ones((1, 1, 1))))
-    # Euler's limit for shear-rigid bonds at ζ 0.4 (tests/test_physics_params.py):
+    # Euler's limit for shear-rigid bonds at ζ 0.4 (tests/physics/test_physics_params.py):
     # 0.118271 / sqrt(E L / m), E = 1e7 Pa soft; a hard–hard bond is 5× stiffer
     assert soft.timestep == pytest.approx(0.118271 / math.sqrt(1e7), rel=1e-4)
     assert hard.timestep == pytest.approx(soft.timestep / math.sqrt(5), rel=1e-4)
@@ -180,7 +180,7 @@ def test_timestep_from_stiffest_bond_present():
 def test_default_timestep_is_075_of_the_networks_euler_limit(damping):
     """Two soft voxels on the floor. In the horizontal plane the bond's shear mode (u the
     voxels' opposite sideways shift, θ their common turn) has K = E L [[4, −2L], [−2L, L²]]
-    on masses 2m, 2I = mL²/3 (ω² = 5 E L/m, tests/test_modes.py). In the vertical plane the
+    on masses 2m, 2I = mL²/3 (ω² = 5 E L/m, tests/physics/test_timestep.py). In the vertical plane the
     floor (the engine's spring 2 E L and damper 0.8·2 sqrt(m E L) on each voxel's vertical
     motion) joins it. The bond's damping C = D K: D = β on every row (stiffness-
     proportional), or β on the force row and β/2 on the moment row (the engine's),

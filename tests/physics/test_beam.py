@@ -2,7 +2,7 @@
 per bond.
 
 Mechanics against theory (axial, cantilever, shear, muscle strain) run for both elements in
-test_physics_mechanics.py; here: with the tendons' law and damping the beam's linear
+tests/physics/test_physics_mechanics.py; here: with the tendons' law and damping the beam's linear
 stiffness and damping equal the tendon bundle's, so does its law along the axis at large
 strain; with the paper engine's (the default) its axial spring is linear, its torsion is
 G·J/L and its dampers are the engine's; it exerts nothing under rigid motion, conserves
@@ -28,7 +28,7 @@ from mjregen.physics import (
 from mjregen.physics.compile import compile_robot
 from mjregen.physics.simulation import simulate, simulation_of
 
-ROBOTS = Path(__file__).resolve().parents[1] / "assets" / "robots"
+ROBOTS = Path(__file__).resolve().parents[2] / "assets" / "robots"
 
 
 def block_robot(dim: int) -> Robot:
