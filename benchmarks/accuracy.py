@@ -66,11 +66,11 @@ import mujoco
 import numpy as np
 
 from mjregen import physics as physics_module
-from mjregen.tasks.fitness import VOXEL_COST
 from mjregen.grid import Material, Robot
 from mjregen.physics import MujocoPipeline, Physics
 from mjregen.physics.compile import compile_robot
 from mjregen.physics.simulation import Simulation
+from mjregen.tasks.fitness import VOXEL_COST
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"

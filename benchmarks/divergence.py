@@ -26,8 +26,8 @@ import numpy as np
 from mjregen.grid import Robot
 from mjregen.physics import Physics
 from mjregen.physics.compile import compile_robot
-from mjregen.physics.simulation import simulation_of
 from mjregen.physics.reference import ROBOT_FILES, load_csv
+from mjregen.physics.simulation import simulation_of
 
 ROOT = Path(__file__).resolve().parent.parent
 THRESHOLDS = (0.05, 0.5)  # voxel lengths

@@ -19,7 +19,6 @@ from pathlib import Path
 import numpy as np
 
 
-
 def load_vxa(folder: Path):
     """The engine folder's ``vxa.py`` as a module."""
     spec = importlib.util.spec_from_file_location("vxa", Path(folder) / "vxa.py")

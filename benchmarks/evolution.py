@@ -25,13 +25,13 @@ import time
 
 import numpy as np
 
-from mjregen.search.ga import PRESETS
-from mjregen.tasks.locomotion import LocomotionTask
 from mjregen.growth.nca import NCAConfig
 from mjregen.growth.networks import random_genomes
-from mjregen.search.backends import make_backend
 from mjregen.physics import Physics
+from mjregen.search.backends import make_backend
+from mjregen.search.ga import PRESETS
 from mjregen.search.runs import run_evolution
+from mjregen.tasks.locomotion import LocomotionTask
 
 
 def backends(args: argparse.Namespace) -> dict:

@@ -42,8 +42,14 @@ import numpy as np
 from mjregen.grid import Robot
 from mjregen.physics import Physics, box_physics, paper_physics, sphere_physics
 from mjregen.physics.compile import compile_robot
-from mjregen.physics.reference import (CASES, ENGINE_PATHS, REFERENCE, ROBOT_FILES, CaseResult,
-                               load_csv)
+from mjregen.physics.reference import (
+    CASES,
+    ENGINE_PATHS,
+    REFERENCE,
+    ROBOT_FILES,
+    CaseResult,
+    load_csv,
+)
 
 ROOT = Path(__file__).resolve().parent.parent
 # the paper engine's recordings (not shipped: 7.5 MB); --reference or $MJREGEN_REFERENCE

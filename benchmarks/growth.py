@@ -17,7 +17,6 @@ import time
 import torch
 
 from mjregen.growth.nca import NCAConfig, grow
-
 from mjregen.growth.networks import random_genomes
 
 

@@ -38,10 +38,10 @@ import mujoco
 import numpy as np
 
 from mjregen.grid import Robot
-from mjregen.plugin_cache import FLAGS, cpu_features
 from mjregen.physics import Physics, timestep
 from mjregen.physics.compile import compile_robot
 from mjregen.physics.simulation import simulate, simulation_of
+from mjregen.plugin_cache import FLAGS, cpu_features
 
 ROOT = Path(__file__).resolve().parents[1]
 MODELS = {

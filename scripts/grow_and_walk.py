@@ -141,10 +141,10 @@ def run(args: argparse.Namespace) -> dict:
         print(f"rendering with MUJOCO_GL={select_gl_backend()}")
 
     from mjregen.figures import growth_figure
-    from mjregen.tasks.fitness import locomotion_fitness
     from mjregen.physics.compile import compile_robot
     from mjregen.physics.simulation import simulate
     from mjregen.render import record_walk
+    from mjregen.tasks.fitness import locomotion_fitness
     from mjregen.video import write_video
 
     print(f"source: {source}")

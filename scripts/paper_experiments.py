@@ -32,10 +32,10 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
+from mjregen.errors import MjregenError
 from mjregen.experiments import paper as ex
 from mjregen.experiments import regrowth
 from mjregen.experiments import walkers as wk
-from mjregen.errors import MjregenError
 from mjregen.figures import regrowth_figures
 from mjregen.search.runs import RunFolderError
 

@@ -37,8 +37,8 @@ from pathlib import Path
 
 import numpy as np
 
-from mjregen.experiments import paper as ex
 from mjregen.errors import MjregenError
+from mjregen.experiments import paper as ex
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER_GLOB = Path(os.environ.get("MJREGEN_PAPER", "paper"))  # a folder with the paper's LaTeX
@@ -274,8 +274,8 @@ class Report:
 
     def shipped(self) -> list[tuple[str, Path, Path | None]]:
         """Shipped NCAs: table and growth figures; returns (name, robot file, nca file) to draw."""
-        from mjregen.growth.checkpoint import load_nca
         from mjregen.figures import growth_figure
+        from mjregen.growth.checkpoint import load_nca
 
         manifest_path = self.args.assets / "nca" / "manifest.json"
         manifest = json.loads(manifest_path.read_text()) if manifest_path.is_file() else {}
@@ -416,9 +416,9 @@ class Report:
     def paper_robot_regrowth(self) -> None:
         """Rows for the paper's own robots regrown by the shipped regrowth NCAs
         (assets/regen/<robot>_<net>.npz), simulated now with today's default physics."""
-        from mjregen.growth.checkpoint import load_nca
-        from mjregen.grid import Robot
         from mjregen.experiments.recovery import measure_recovery, regrowth_robots
+        from mjregen.grid import Robot
+        from mjregen.growth.checkpoint import load_nca
 
         shipped = sorted(path for path in (self.args.assets / "regen").glob("*.npz")
                          if (PAPER_ROBOTS / f"{path.stem.split('_')[0]}.npy").is_file())

@@ -39,9 +39,9 @@ from pathlib import Path
 
 import numpy as np
 
+from mjregen.errors import MjregenError
 from mjregen.experiments import paper as ex
 from mjregen.experiments import walkers as wk
-from mjregen.errors import MjregenError
 from mjregen.fileio import atomic_open
 from mjregen.grid import Material, Robot
 
@@ -96,9 +96,9 @@ def measure(npz: Path, run_config: dict, expected_robot: Path | None = None) -> 
         from `expected_robot` (the run's own .npy).
     """
     from mjregen.growth.checkpoint import load_nca
-    from mjregen.tasks.fitness import locomotion_fitness
     from mjregen.physics import Physics
     from mjregen.physics.simulation import simulate
+    from mjregen.tasks.fitness import locomotion_fitness
 
     task = run_config.get("task", {})
     if not isinstance(task.get("physics"), dict):

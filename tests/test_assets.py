@@ -16,12 +16,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mjregen.growth.checkpoint import load_nca
-from mjregen.tasks.fitness import locomotion_fitness
 from mjregen.grid import Material, Robot
+from mjregen.growth.checkpoint import load_nca
 from mjregen.physics import Physics, Scene, VoxelPipeline, migrate_physics
 from mjregen.physics.migrate import PHYSICS_FORMAT
 from mjregen.physics.simulation import simulate
+from mjregen.tasks.fitness import locomotion_fitness
 
 NCA_DIR = Path(__file__).resolve().parents[1] / "assets" / "nca"
 MANIFEST = json.loads((NCA_DIR / "manifest.json").read_text())

@@ -7,8 +7,8 @@ import math
 from pathlib import Path
 
 from mjregen.errors import MjregenError
-from mjregen.search.ga import PRESETS, GAConfig
 from mjregen.grid import Material, Robot
+from mjregen.search.ga import PRESETS, GAConfig
 
 
 def seed(text: str) -> int:

@@ -120,8 +120,8 @@ def add_walk(subparsers: argparse._SubParsersAction) -> None:
 
 def _walk(args: argparse.Namespace) -> int:
     from mjregen.fileio import atomic_open
-    from mjregen.tasks.fitness import locomotion_fitness
     from mjregen.physics.simulation import simulate
+    from mjregen.tasks.fitness import locomotion_fitness
 
     robot = Robot.load(args.robot)
     if robot.is_empty:

@@ -32,9 +32,9 @@ from pathlib import Path
 import numpy as np
 
 from mjregen.errors import MjregenError
-from mjregen.search.ga import PRESETS, GAConfig
 from mjregen.growth.nca import NCAConfig
 from mjregen.physics import Physics
+from mjregen.search.ga import PRESETS, GAConfig
 
 DEFAULT_ROOT = Path("runs") / "results"
 NETS = ("ff", "lstm")

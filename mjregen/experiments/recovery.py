@@ -14,11 +14,11 @@ from pathlib import Path
 import numpy as np
 
 from mjregen.fileio import atomic_open
-from mjregen.tasks.fitness import locomotion_fitness
 from mjregen.grid import Robot
 from mjregen.growth.nca import NCA
 from mjregen.physics import Physics
 from mjregen.physics.simulation import simulate
+from mjregen.tasks.fitness import locomotion_fitness
 from mjregen.tasks.regrowth import (
     RegrowthTask,
     paper_cut,

@@ -29,7 +29,14 @@ import torch
 
 from mjregen.errors import InvalidGenomeError
 from mjregen.grid import N_MATERIALS, Material, Robot, clean_grids
-from mjregen.growth.networks import CellNetwork, PopulationNetworks, check_genomes, genome_to_network, parameter_layout, random_genomes
+from mjregen.growth.networks import (
+    CellNetwork,
+    PopulationNetworks,
+    check_genomes,
+    genome_to_network,
+    parameter_layout,
+    random_genomes,
+)
 
 GRID_SIZE = {2: 7, 3: 9}  # the paper's grids, border included
 NetKind = Literal["ff", "lstm"]

@@ -12,7 +12,6 @@ library (`plugin/`, C); `reference` runs the small cases recorded from the paper
 from mjregen.errors import PhysicsParameterError
 from mjregen.physics.compile import CompiledRobot, compile_robot
 from mjregen.physics.migrate import PHYSICS_FORMAT, migrate_physics
-from mjregen.physics.voxel_plugin import NativeBuildError, plugin_library
 from mjregen.physics.params import (
     PAPER_TIMES,
     WAVEFORMS,
@@ -35,6 +34,7 @@ from mjregen.physics.pipelines import (
 )
 from mjregen.physics.presets import box_physics, paper_physics, sphere_physics
 from mjregen.physics.simulation import Result, Simulation, simulate, simulation_of
+from mjregen.physics.voxel_plugin import NativeBuildError, plugin_library
 
 __all__ = [
     "BOND_ELEMENTS", "BOND_MODELS", "CONTACT_SHAPES", "INTEGRATORS", "PAPER_TIMES",

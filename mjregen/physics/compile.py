@@ -17,7 +17,7 @@ import numpy as np
 
 from mjregen.errors import CompileError, PhysicsParameterError
 from mjregen.grid import Robot
-from mjregen.physics import mjcf, voxel_plugin, timestep
+from mjregen.physics import mjcf, timestep, voxel_plugin
 from mjregen.physics.model import (
     BeamTable,
     RobotLayout,

@@ -23,7 +23,7 @@ from typing import Mapping
 
 from mjregen.errors import PhysicsParameterError
 from mjregen.grid import Material
-from mjregen.physics.checks import check_range, check_choice, check_flag
+from mjregen.physics.checks import check_choice, check_flag, check_range
 from mjregen.physics.migrate import PHYSICS_FORMAT, migrate_physics
 from mjregen.physics.pipelines import PIPELINES, MujocoPipeline, Pipeline, VoxelPipeline
 

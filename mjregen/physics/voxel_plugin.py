@@ -30,8 +30,7 @@ from pathlib import Path
 import mujoco
 
 from mjregen.errors import MjregenError
-from mjregen.plugin_cache import (FLAGS, PLUGIN_FILES, PLUGIN_SOURCES, library_path,
-                                  mujoco_libraries)
+from mjregen.plugin_cache import FLAGS, PLUGIN_FILES, PLUGIN_SOURCES, library_path, mujoco_libraries
 
 PLUGIN_NAME = "mjregen.voxels"
 SOURCES = tuple(PLUGIN_SOURCES / name for name in PLUGIN_FILES if name.endswith(".c"))

@@ -34,17 +34,16 @@ from typing import Callable, Protocol
 import numpy as np
 from tqdm import tqdm
 
-from mjregen import __version__
-from mjregen.growth.checkpoint import save_nca
-from mjregen import interrupt
+from mjregen import __version__, interrupt
 from mjregen.errors import CheckpointError, MjregenError
-from mjregen.tasks.evaluation import PopulationEvaluation
-from mjregen.search.ga import GAConfig, GeneticAlgorithm
 from mjregen.fileio import atomic_open
 from mjregen.grid import Robot
+from mjregen.growth.checkpoint import save_nca
 from mjregen.growth.nca import NCA, NCAConfig
-from mjregen.search.backends import Backend
 from mjregen.plotting import line_axes, save_png
+from mjregen.search.backends import Backend
+from mjregen.search.ga import GAConfig, GeneticAlgorithm
+from mjregen.tasks.evaluation import PopulationEvaluation
 
 RUN_FORMAT = "mjregen-run-1"
 PLOT_EVERY = 10.0  # s of wall time between redraws of fitness.png (and after the last generation)

@@ -11,10 +11,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from mjregen.tasks.fitness import locomotion_fitness
 from mjregen.grid import Material, Robot
 from mjregen.physics import Physics
 from mjregen.physics.simulation import simulate
+from mjregen.tasks.fitness import locomotion_fitness
 
 
 @dataclass(frozen=True)

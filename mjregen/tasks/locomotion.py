@@ -12,15 +12,15 @@ Unstable simulations keep their penalty fitness; individuals whose evaluation fa
 from __future__ import annotations
 
 from collections import OrderedDict
-from typing import TYPE_CHECKING
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from mjregen.tasks.evaluation import PopulationEvaluation, RobotJob, evaluate_robot, expected_cost
-from mjregen.tasks.fitness import EMPTY_FITNESS, UNSTABLE_FITNESS
 from mjregen.growth.nca import NCAConfig, grow
 from mjregen.physics import Physics
+from mjregen.tasks.evaluation import PopulationEvaluation, RobotJob, evaluate_robot, expected_cost
+from mjregen.tasks.fitness import EMPTY_FITNESS, UNSTABLE_FITNESS
 
 if TYPE_CHECKING:  # the search layer hands a task its backend
     from mjregen.search.backends import Backend

@@ -11,15 +11,15 @@ occupies.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import torch
 
-from mjregen.tasks.evaluation import PopulationEvaluation
 from mjregen.grid import Robot, half_space_mask
 from mjregen.growth.nca import CAState, Growth, NCAConfig, grow
+from mjregen.tasks.evaluation import PopulationEvaluation
 
 if TYPE_CHECKING:  # the search layer hands a task its backend
     from mjregen.search.backends import Backend

@@ -8,18 +8,18 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from mjregen.cli import main as mjregen_main
 from mjregen.experiments import paper as ex
 from mjregen.experiments import regrowth
 from mjregen.experiments import walkers as wk
-from mjregen.growth.checkpoint import load_nca, save_nca
-from mjregen.cli import main as mjregen_main
-from mjregen.search.ga import PRESETS
-from mjregen.tasks.fitness import locomotion_fitness
 from mjregen.grid import Robot
+from mjregen.growth.checkpoint import load_nca, save_nca
 from mjregen.growth.nca import NCA, NCAConfig, grow
 from mjregen.physics import Physics
 from mjregen.physics.simulation import simulate
+from mjregen.search.ga import PRESETS
 from mjregen.search.runs import METRICS, RunFolderError
+from mjregen.tasks.fitness import locomotion_fitness
 from mjregen.tasks.locomotion import LocomotionTask
 
 SCRIPTS = Path(__file__).resolve().parents[2] / "scripts"
@@ -79,9 +79,9 @@ def test_tiny_run_resumes_and_matches_its_printed_command(tmp_path):
             raise Killed
 
     # kill after generation 0 (through run_evolution's hook), then resume with the job
-    from mjregen.tasks.locomotion import LocomotionTask
     from mjregen.search.backends import SerialBackend
     from mjregen.search.runs import run_evolution
+    from mjregen.tasks.locomotion import LocomotionTask
 
     task = LocomotionTask(nca=job.condition.nca, physics=job.physics, duration=job.duration)
     with pytest.raises(Killed):

@@ -4,10 +4,10 @@ import json
 
 import pytest
 
+from mjregen.experiments.recovery import measure_recovery, write_report
 from mjregen.grid import Robot
 from mjregen.physics import Physics
 from mjregen.physics.simulation import simulate
-from mjregen.experiments.recovery import measure_recovery, write_report
 
 WALKER = Robot.load("assets/robots/paper/tripod.npy")  # walks 4.2 voxel lengths in 0.1 s
 QUICK = Physics().replace(settle_time=0.01)

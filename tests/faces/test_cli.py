@@ -8,9 +8,9 @@ import sys
 import numpy as np
 import pytest
 
-from mjregen.growth.checkpoint import save_nca
 from mjregen.cli import main
 from mjregen.grid import Robot
+from mjregen.growth.checkpoint import save_nca
 from mjregen.growth.nca import NCA, NCAConfig
 
 
@@ -82,9 +82,9 @@ WALKER = "assets/robots/bimorph_walker_3d.npy"
 
 
 def test_walk_json_equals_simulate(tmp_path, capsys):
-    from mjregen.tasks.fitness import locomotion_fitness
     from mjregen.physics import Physics
     from mjregen.physics.simulation import simulate
+    from mjregen.tasks.fitness import locomotion_fitness
 
     csv = tmp_path / "com.csv"
     assert main(["walk", WALKER, "--settle", "0.01", "--duration", "0.05", "--trajectory", str(csv), "--json"]) == 0

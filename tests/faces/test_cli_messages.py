@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from mjregen.cli import main
-from mjregen.grid import Robot
 from mjregen.experiments.recovery import RecoveryReport
+from mjregen.grid import Robot
 
 EMPTY_3D = np.zeros((9, 9, 9), dtype=np.int8)
 BLOCK = np.pad(np.ones((2, 2, 2), dtype=np.int8), 1)

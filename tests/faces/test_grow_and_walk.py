@@ -11,12 +11,12 @@ import mujoco
 import numpy as np
 import pytest
 
-from mjregen.growth.checkpoint import load_nca
-from mjregen.tasks.fitness import locomotion_fitness
 from mjregen.grid import Material, Robot
+from mjregen.growth.checkpoint import load_nca
 from mjregen.physics import Physics
 from mjregen.physics.compile import compile_robot
 from mjregen.physics.simulation import simulate
+from mjregen.tasks.fitness import locomotion_fitness
 
 ROOT = Path(__file__).resolve().parents[2]
 SCRIPT = ROOT / "scripts" / "grow_and_walk.py"

@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 import torch
 
-from mjregen.growth.checkpoint import load_nca, save_nca
 from mjregen.errors import CheckpointError, InvalidGenomeError
 from mjregen.grid import Material, clean_grids
+from mjregen.growth.checkpoint import load_nca, save_nca
 from mjregen.growth.nca import CHUNK, NCA, CAState, NCAConfig, grow
 from mjregen.growth.networks import (
     CellNetwork,

@@ -9,8 +9,7 @@ import numpy as np
 import pytest
 
 from mjregen.physics import Physics, box_physics, paper_physics, sphere_physics
-from mjregen.physics.reference import (CASES, REFERENCE, engine_path, heading_of,
-                               path_difference)
+from mjregen.physics.reference import CASES, REFERENCE, engine_path, heading_of, path_difference
 
 
 def test_paper_preset_is_the_default_and_round_trips():

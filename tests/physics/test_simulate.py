@@ -7,16 +7,16 @@ import numpy as np
 import pytest
 
 from mjregen.errors import InvalidGridError
+from mjregen.grid import Robot
+from mjregen.physics import Physics, PhysicsParameterError
+from mjregen.physics.compile import compile_robot
+from mjregen.physics.simulation import simulate, simulation_of
 from mjregen.tasks.fitness import (
     EMPTY_FITNESS,
     UNSTABLE_FITNESS,
     VOXEL_COST,
     locomotion_fitness,
 )
-from mjregen.grid import Robot
-from mjregen.physics import Physics, PhysicsParameterError
-from mjregen.physics.compile import compile_robot
-from mjregen.physics.simulation import simulate, simulation_of
 
 ROBOTS = Path(__file__).resolve().parents[2] / "assets" / "robots"
 

@@ -10,12 +10,12 @@ import mujoco
 import numpy as np
 import pytest
 
-from mjregen.tasks.fitness import UNSTABLE_FITNESS, locomotion_fitness
 from mjregen.grid import Robot
 from mjregen.physics import Physics, PhysicsParameterError, voxel_plugin
 from mjregen.physics.compile import compile_robot
 from mjregen.physics.simulation import Simulation, simulate, simulation_of
 from mjregen.physics.stepper import NativeStepper, unsupported
+from mjregen.tasks.fitness import UNSTABLE_FITNESS, locomotion_fitness
 
 pytestmark = pytest.mark.skipif(not voxel_plugin.available(),
                                 reason="no C compiler for the voxel plugin")

@@ -6,13 +6,13 @@ import json
 import numpy as np
 import pytest
 
-from mjregen.growth.checkpoint import load_nca
-from mjregen.tasks.evaluation import PopulationEvaluation
-from mjregen.search.ga import GAConfig
 from mjregen.grid import Robot
+from mjregen.growth.checkpoint import load_nca
 from mjregen.growth.nca import NCAConfig, grow
 from mjregen.search.backends import SerialBackend
+from mjregen.search.ga import GAConfig
 from mjregen.search.runs import RunFolderError, run_evolution
+from mjregen.tasks.evaluation import PopulationEvaluation
 
 GA = GAConfig(population=12, generations=6, truncation=4, elites=2, sigma=0.05)
 

@@ -5,6 +5,12 @@ import numpy as np
 import pytest
 
 import mjregen.tasks.locomotion as locomotion
+from mjregen.grid import Material
+from mjregen.growth.nca import NCAConfig, grow
+from mjregen.growth.networks import random_genomes
+from mjregen.physics import Physics
+from mjregen.physics.simulation import simulate
+from mjregen.search.backends import ProcessBackend, SerialBackend, ThreadBackend, make_backend
 from mjregen.tasks.evaluation import HARD_STEP_COST, expected_cost
 from mjregen.tasks.fitness import (
     EMPTY_FITNESS,
@@ -12,12 +18,6 @@ from mjregen.tasks.fitness import (
     VOXEL_COST,
     locomotion_fitness,
 )
-from mjregen.grid import Material
-from mjregen.growth.nca import NCAConfig, grow
-from mjregen.growth.networks import random_genomes
-from mjregen.search.backends import ProcessBackend, SerialBackend, ThreadBackend, make_backend
-from mjregen.physics import Physics
-from mjregen.physics.simulation import simulate
 
 NCA = NCAConfig(dim=2, kind="ff")
 QUICK = Physics().replace(settle_time=0.01)

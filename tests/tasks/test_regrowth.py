@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 import torch
 
-from mjregen.search.ga import GAConfig, GeneticAlgorithm
 from mjregen.grid import Robot
 from mjregen.growth.nca import NCA, NCAConfig
 from mjregen.growth.networks import CellNetwork, network_to_genome, random_genomes
 from mjregen.search.backends import SerialBackend
+from mjregen.search.ga import GAConfig, GeneticAlgorithm
 from mjregen.tasks.regrowth import (
     RegrowthTask,
     cut_half_space,
@@ -124,8 +124,8 @@ def test_a_tiny_2d_regrowth_evolution_improves_similarity():
 
 
 def test_shipped_tripod_regrowth_nca_regrows_the_tripod_exactly():
-    from mjregen.growth.checkpoint import load_nca
     from mjregen.experiments.recovery import regrowth_robots
+    from mjregen.growth.checkpoint import load_nca
 
     nca, metadata = load_nca("assets/regen/tripod_ff.npz")
     tripod = Robot.load("assets/robots/paper/tripod.npy")
