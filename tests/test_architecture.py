@@ -134,7 +134,8 @@ def test_the_package_has_no_import_cycle():
     assert "mjregen.physics.voxel_plugin" in graph["mjregen.physics.compile"]
     assert "mjregen.physics" not in graph["mjregen.physics.compile"]  # siblings only
     assert "mjregen.physics" in graph["mjregen.tasks.locomotion"]  # the package's own names
-    assert find_cycle(graph) == []
+    cycle = find_cycle(graph)
+    assert not cycle, "import cycle: " + " -> ".join(cycle)
 
 
 def _has_layer(module: str) -> bool:
@@ -150,7 +151,8 @@ def test_every_module_has_a_layer():
 
 
 def test_a_layer_imports_only_from_its_own_layer_or_below():
-    assert layer_violations(module_graph()) == []
+    violations = layer_violations(module_graph())
+    assert not violations, "imports against the layers:\n" + "\n".join(violations)
 
 
 def test_the_contract_catches_a_wrong_import():
