@@ -4,7 +4,6 @@ message, even for work that never renders."""
 
 from __future__ import annotations
 
-import ctypes.util
 import os
 
 HEADLESS_BACKENDS = ("egl", "osmesa")  # tried in this order when MUJOCO_GL is not set
@@ -25,6 +24,8 @@ def requested_backend() -> str:
 
 def missing_library(backend: str) -> str | None:
     """Why `backend` cannot load (its system library is not installed), or None."""
+    import ctypes.util  # only when a backend is named: its import costs every command
+
     library = LIBRARIES.get(backend)
     if library is not None and ctypes.util.find_library(library) is None:
         return (f"MUJOCO_GL={backend}, but lib{library} is not installed "

@@ -20,7 +20,7 @@ from mjregen.errors import MjregenError
 
 
 def add_evolve(subparsers: argparse._SubParsersAction) -> None:
-    from mjregen.search.backends import BACKENDS
+    from mjregen.search import BACKENDS
 
     parser = subparsers.add_parser(
         "evolve",

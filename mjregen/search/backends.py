@@ -24,6 +24,7 @@ from typing import Any, Callable, Generic, Sequence, TypeVar
 
 from mjregen import interrupt
 from mjregen.errors import MjregenError
+from mjregen.search import BACKENDS
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -248,7 +249,6 @@ class RayBackend(Backend):
             self._ray.shutdown()
 
 
-BACKENDS = ("serial", "process", "thread", "ray")
 
 
 def _check_reachable(address: str) -> None:
