@@ -71,7 +71,25 @@ def robots() -> dict[str, Robot]:
     out["sheet_2d_5x5"] = Robot.from_body(rng.choice([1, 2, 3, 4], size=(5, 5)).astype(np.int8))
     for path in sorted((ROOT / "assets" / "nca").glob("walker_3d_*.npy")):
         out[f"evolved_{path.stem}"] = Robot.load(path)
+    for i, robot in enumerate(initial_population(RANDOM_ROBOTS)):
+        out[f"random_3d_{i}"] = robot
     return out
+
+
+def initial_population(count: int, seed: int = 0) -> list[Robot]:
+    """The first `count` distinct non-empty robots of the paper's 3D GA's first generation
+    (seed `seed`): what the start of a 3D evolution simulates."""
+    from mjregen.growth.nca import NCAConfig, grow
+    from mjregen.search.ga import PRESETS, GeneticAlgorithm
+
+    config = NCAConfig(dim=3, kind="ff")
+    genomes = GeneticAlgorithm(PRESETS["3d"], config.genome_size, seed=seed).ask()
+    robots, seen = [], set()
+    for grid in grow(config, genomes).grids:
+        if grid.any() and grid.tobytes() not in seen:
+            seen.add(grid.tobytes())
+            robots.append(Robot(grid))
+    return robots[:count]
 
 
 def load_engine(folder: Path):
@@ -144,9 +162,11 @@ def markdown(report: dict, models: list[str]) -> str:
     return "\n".join(lines)
 
 
+RANDOM_ROBOTS = 6  # robots of a random initial 3D population in the report
 DOC_ROBOTS = {"paper_tripod": "tripod", "paper_biped": "biped", "paper_multiped": "multiped",
               "block_7x7x7_soft": "7×7×7 all soft", "block_7x7x7_muscle": "7×7×7 soft and muscle",
-              "slab_3d_112": "112-voxel slab, no hard", "sheet_2d_5x5": "2D 5×5 sheet"}
+              "slab_3d_112": "112-voxel slab, no hard", "sheet_2d_5x5": "2D 5×5 sheet",
+              **{f"random_3d_{i}": f"random initial robot {i}" for i in range(RANDOM_ROBOTS)}}
 ENGINE_DT_FRACTION = 0.9  # the paper's DtFrac: step = 0.9 / (2π sqrt(k/m)), k = E L
 
 
@@ -238,12 +258,26 @@ def _ratio_range(report: dict, names: list[str]) -> str:
     return f"{min(ratios):.2f}–{max(ratios):.2f}" if ratios else "not measured"
 
 
+def _vector_unit() -> str:
+    """The widest x86 vector instructions this CPU has, as `-march=native` uses them."""
+    flags = set(cpu_features().split())
+    return "AVX-512" if "avx512f" in flags else "AVX2" if "avx2" in flags else "the CPU's vectors"
+
+
+def _total_ratio(report: dict, names: list[str]) -> float:
+    """mjregen's CPU time over the engine's, summed over the robots `names`."""
+    return (sum(report[n]["default"]["cpu_s"] for n in names)
+            / sum(report[n]["voxelyze_cpu_s"] for n in names))
+
+
 def performance_doc(report: dict, extra: dict, evolution: dict | None) -> str:
     """docs/performance.md from one run of this script."""
     before = json.loads((Path(__file__).with_name("speed_before.json")).read_text())
     steps, start = extra["steps"], extra["startup"]
     paper = [n for n in report if n.startswith("paper_")]
-    others = [n for n in report if not n.startswith("paper_") and report[n]["voxels"]
+    randoms = [n for n in report if n.startswith("random_")
+               and report[n]["voxelyze_cpu_s"] is not None]
+    others = [n for n in report if not n.startswith(("paper_", "random_")) and report[n]["voxels"]
               and report[n]["voxelyze_cpu_s"] is not None]
     lines = [
         "# Performance: CPU time per evaluation, side by side with the paper's engine",
@@ -265,7 +299,10 @@ def performance_doc(report: dict, extra: dict, evolution: dict | None) -> str:
         "## Result",
         "",
         f"- The paper's robots: **{_ratio_range(report, paper)}** of the engine's CPU time "
-        f"per evaluation; robots without hard voxels: **{_ratio_range(report, others)}**.",
+        f"per evaluation; robots without hard voxels: **{_ratio_range(report, others)}**"
+        + (f"; a random initial 3D population ({len(randoms)} robots): "
+           f"**{_ratio_range(report, randoms)}**, {_total_ratio(report, randoms):.2f} of the "
+           "engine's CPU time over all of them." if randoms else "."),
         f"- `mjregen walk ROBOT --json` as a fresh process, with nothing simulated: "
         f"{start['walk']:.2f} CPU s, of which Python with numpy (one BLAS thread, as the "
         f"command sets it) and mujoco imported costs {start['imports']:.2f} s "
@@ -333,7 +370,8 @@ def performance_doc(report: dict, extra: dict, evolution: dict | None) -> str:
         "",
         "- **The same numbers, faster.** The plugin's per-voxel data are rows (a structure of "
         "arrays); the beam bonds' arithmetic, the voxels' frames, drag and the native "
-        "stepper's integration are loops the compiler vectorises (AVX2 on this machine); the "
+        f"stepper's integration are loops the compiler vectorises ({_vector_unit()} on this "
+        "machine); the "
         "bonds read their voxels by gather and add their forces back in bond order. Every "
         "operation is the one the scalar code did, in the same order, so the motion is the "
         "scalar code's to the last bit (the paper robots' distances: "

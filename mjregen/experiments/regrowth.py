@@ -122,7 +122,7 @@ def run_regrowth(*, source: RegrowthSource, out: str | Path, damage: str | None 
       name: the robot's name in recovery.md (default: the source file's stem).
       resume, force, progress: as for `mjregen.search.runs.run_evolution`.
     Raises:
-      MjregenError: an unreadable damage condition or a damage that leaves nothing.
+      mjregen.errors.InvalidGridError: an unreadable damage condition.
       mjregen.search.runs.RunFolderError: `out` holds another run or nothing to resume.
     """
     out = Path(out)

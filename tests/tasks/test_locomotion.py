@@ -1,6 +1,8 @@
 """The locomotion fitness pipeline: distinct robots simulated once, backends agree,
 diverging and raising evaluations are contained."""
 
+import json
+
 import numpy as np
 import pytest
 
@@ -143,3 +145,14 @@ def test_a_raising_evaluation_is_contained(monkeypatch):
     assert np.all(result.failed[simulated]) and np.all(result.fitness[simulated] == UNSTABLE_FITNESS[2])
     assert result.errors and "solver exploded" in result.errors[0]
     assert not task._cache  # a failure is not a result: it is tried again next generation
+
+
+def test_a_task_and_its_run_configuration_are_one():
+    task = locomotion.LocomotionTask(nca=NCAConfig(dim=3, kind="lstm"),
+                                     physics=Physics().replace(settle_time=0.02), duration=0.1)
+    config = task.to_config()
+    assert json.loads(json.dumps(config)) == config  # what config.json holds
+    again = locomotion.LocomotionTask.from_config(config)
+    assert (again.nca, again.physics, again.duration) == (task.nca, task.physics, task.duration)
+    with pytest.raises(ValueError, match="not a locomotion task: 'regrowth'"):
+        locomotion.LocomotionTask.from_config({**config, "task": "regrowth"})

@@ -1,0 +1,48 @@
+"""`run_regrowth`, the library call behind `mjregen regen` and the regrowth experiment, and
+where a regrowth starts from (`regrowth_source`)."""
+
+import json
+
+import numpy as np
+import pytest
+
+from mjregen.errors import MjregenError
+from mjregen.experiments.regrowth import regrowth_source, run_regrowth
+from mjregen.grid import Robot
+from mjregen.growth.nca import NCAConfig
+from mjregen.physics import Physics
+from mjregen.resources import asset
+from mjregen.search.ga import PRESETS
+from mjregen.tasks.regrowth import similarity
+
+WALKER_2D = asset("robots", "bimorph_walker_2d.npy")
+TINY_GA = PRESETS["regen"].with_overrides(population=8, generations=2, truncation=4, elites=2)
+
+
+def test_a_regrowth_starts_from_exactly_one_source():
+    with pytest.raises(MjregenError, match="exactly one"):
+        regrowth_source()
+    with pytest.raises(MjregenError, match="exactly one"):
+        regrowth_source(robot=WALKER_2D, paper="biped")
+    with pytest.raises(MjregenError, match="unknown paper robot 'hexapod'"):
+        regrowth_source(paper="hexapod")
+    biped = regrowth_source(paper="biped")
+    assert biped.robot == Robot.load(asset("robots", "paper", "biped.npy"))
+    alive = biped.state.alpha[0].numpy() > 0
+    assert np.array_equal(alive, biped.robot.grid != 0)  # a robot file: every voxel alive
+
+
+def test_run_regrowth_returns_what_it_writes(tmp_path):
+    physics = Physics().replace(settle_time=0.05)
+    run = run_regrowth(source=regrowth_source(robot=WALKER_2D), out=tmp_path / "run",
+                       ga=TINY_GA, seed=3, physics=physics, duration=0.05, progress=False)
+    assert run.summary.generations == 2
+    for role, robot in run.robots.items():
+        assert Robot.load(tmp_path / "run" / f"{role}.npy") == robot
+    assert run.robots["regrown"] == run.regrowth.robot()
+    original = run.robots["original"].grid
+    assert run.summary.best_fitness == similarity(run.regrowth.grids, original)[0]
+    assert json.loads((tmp_path / "run" / "recovery.json").read_text()) == run.report.to_dict()
+    config = json.loads((tmp_path / "run" / "config.json").read_text())
+    assert config["task"]["damage"] == "paper cut"
+    assert config["task"]["nca"] == NCAConfig(dim=2, kind="ff").to_dict()
