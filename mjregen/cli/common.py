@@ -65,9 +65,10 @@ def ga_config(args: argparse.Namespace, default_preset: str) -> GAConfig:
         raise MjregenError(str(error)) from None
 
 
-def add_run_folder_arguments(parser: argparse.ArgumentParser, *, resume_help: str) -> None:
+def add_run_folder_arguments(parser: argparse.ArgumentParser, *, resume_help: str,
+                             out_required: bool = True) -> None:
     """--out, --resume | --force and --quiet, as every run-folder command has them."""
-    parser.add_argument("--out", type=Path, required=True, help="run folder")
+    parser.add_argument("--out", type=Path, required=out_required, help="run folder")
     folder = parser.add_mutually_exclusive_group()
     folder.add_argument("--resume", action="store_true", help=resume_help)
     folder.add_argument("--force", action="store_true", help="delete --out first")

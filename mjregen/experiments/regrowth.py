@@ -11,6 +11,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import torch
 
 from mjregen.errors import MjregenError
 from mjregen.experiments.paper import (
@@ -22,8 +23,8 @@ from mjregen.experiments.paper import (
 )
 from mjregen.experiments.recovery import RecoveryReport, measure_recovery, write_report
 from mjregen.grid import Robot
-from mjregen.growth.checkpoint import load_nca
-from mjregen.growth.nca import CAState, Growth, NCAConfig
+from mjregen.growth.checkpoint import load_nca, save_nca
+from mjregen.growth.nca import NCA, CAState, Growth, NCAConfig
 from mjregen.physics import Physics
 from mjregen.resources import PAPER_ROBOTS, asset
 from mjregen.search.backends import SerialBackend
@@ -35,6 +36,7 @@ from mjregen.tasks.regrowth import (
     paper_cut,
     state_of_growth,
     state_of_robot,
+    state_of_saved,
 )
 
 ROLES = ("original", "damaged", "regrown")
@@ -46,20 +48,25 @@ class RegrowthSource:
 
     Attributes:
       robot: the original robot (on the NCA grid).
-      state: its CA state, the damage is cut from (`mjregen.tasks.regrowth`).
+      state: its CA state, which the damage is cut from (`mjregen.tasks.regrowth`).
       label: where it came from (a file's path), for config.json and reports.
+      start: how `state` was made: "grown" (an NCA's growth, alphas and all), "saved" (the
+        CA state the paper's code saved) or "alpha 1" (a grid alone: alpha 1 on its voxels).
     """
 
     robot: Robot
     state: CAState
     label: str
+    start: str
 
 
 def regrowth_source(*, robot: str | Path | None = None, checkpoint: str | Path | None = None,
                     paper: str | None = None) -> RegrowthSource:
     """The original robot of a regrowth, from exactly one of: a robot grid file (``.npy``;
-    its CA state: every voxel alive), an NCA checkpoint that grows it (its CA state as grown),
-    or the name of one of the paper's robots.
+    its CA state: alpha 1 on every voxel), an NCA checkpoint that grows it (its CA state as
+    grown, alphas and all, as the paper's code regrows from), or the name of one of the
+    paper's robots (the biped from the CA state the paper's code saved; the tripod and the
+    multiped, whose states were not published, with alpha 1).
 
     Raises:
       MjregenError: not exactly one source, an unknown paper robot, a robot not on the NCA
@@ -71,7 +78,7 @@ def regrowth_source(*, robot: str | Path | None = None, checkpoint: str | Path |
     if checkpoint is not None:
         nca, _ = load_nca(checkpoint)
         growth = nca.grow()
-        return RegrowthSource(growth.robot(), state_of_growth(growth), str(checkpoint))
+        return RegrowthSource(growth.robot(), state_of_growth(growth), str(checkpoint), "grown")
     if paper is not None and paper not in PAPER_ROBOTS:
         raise MjregenError(f"unknown paper robot {paper!r}; choose from {', '.join(PAPER_ROBOTS)}")
     path = Path(robot) if robot is not None else asset("robots", "paper", f"{paper}.npy")
@@ -80,7 +87,18 @@ def regrowth_source(*, robot: str | Path | None = None, checkpoint: str | Path |
     if original.shape != config.grid_shape:
         raise MjregenError(f"{path}: regrowth needs the NCA grid {config.grid_shape}, "
                            f"got {original.shape}")
-    return RegrowthSource(original, state_of_robot(original, config), str(path))
+    # a shipped robot by its place in the repository, the same on every machine
+    label = str(path) if paper is None else f"assets/robots/paper/{paper}.npy"
+    saved = path.with_name(f"{path.stem}_ca_state.npy") if paper is not None else None
+    if saved is not None and saved.is_file():
+        try:
+            state = state_of_saved(np.load(saved), config)
+        except ValueError as error:
+            raise MjregenError(f"{saved}: {error}") from None
+        if not np.array_equal(state.state[0].numpy(), original.grid):
+            raise MjregenError(f"{saved}: its states are not the robot in {path}")
+        return RegrowthSource(original, state, label, "saved")
+    return RegrowthSource(original, state_of_robot(original, config), label, "alpha 1")
 
 
 @dataclass(frozen=True)
@@ -100,6 +118,9 @@ class RegrowthRun:
     report: RecoveryReport
 
 
+REGROWTH_FILE = "regrowth.npz"  # a run's best regrowth NCA, with what it regrows
+
+
 def run_regrowth(*, source: RegrowthSource, out: str | Path, damage: str | None = None,
                  net: str = "ff", ga: GAConfig | None = None, seed: int = 0,
                  physics: Physics | None = None, duration: float | None = None,
@@ -108,7 +129,9 @@ def run_regrowth(*, source: RegrowthSource, out: str | Path, damage: str | None 
     """Damage `source`'s CA state, evolve an NCA that regrows it, walk the three robots.
 
     Writes into the run folder `out`: the GA's files (config.json, metrics.csv, best/,
-    checkpoint.npz, fitness.png), original/damaged/regrown.npy and recovery.md/.json.
+    checkpoint.npz, fitness.png), original/damaged/regrown.npy, recovery.md/.json and
+    ``regrowth.npz``: the best regrowth NCA with the robot and damaged state it regrows
+    (`replay_regrowth` runs it again).
 
     Args:
       source: the original robot and its CA state (`regrowth_source`).
@@ -132,7 +155,7 @@ def run_regrowth(*, source: RegrowthSource, out: str | Path, damage: str | None 
                         damaged=CAState(damaged.state, damaged.alpha, None))
     task_config = {
         "task": "regrowth", "nca": config.to_dict(), "source": source.label,
-        "damage": damage or "paper cut", "original": source.robot.grid.tolist(),
+        "start": source.start, "damage": damage or "paper cut", "original": source.robot.grid.tolist(),
         "damaged_state": damaged.state[0].tolist(), "damaged_alpha": damaged.alpha[0].tolist(),
     }
     summary = run_evolution(task, ga or PRESETS["regen"], seed=seed, out=out,
@@ -144,9 +167,60 @@ def run_regrowth(*, source: RegrowthSource, out: str | Path, damage: str | None 
               "regrown": regrowth.robot()}
     for role, robot in robots.items():
         robot.save(out / f"{role}.npy", overwrite=True)
+    save_nca(out / REGROWTH_FILE, NCA(config, summary.best_genome), overwrite=True, metadata={
+        "robot": name or Path(source.label).stem, "source": source.label, "start": source.start,
+        "damage": damage or "paper cut", "similarity": int(summary.best_fitness),
+        "generation": summary.best_generation, "seed": seed, "ga": (ga or PRESETS["regen"]).to_dict(),
+        "original": task_config["original"], "damaged_state": task_config["damaged_state"],
+        "damaged_alpha": task_config["damaged_alpha"]})
     report = measure_recovery(robots, physics=physics, duration=duration)
     write_report(report, out, name=name or Path(source.label).stem)
     return RegrowthRun(summary, robots, regrowth, report)
+
+
+@dataclass(frozen=True)
+class RegrowthReplay:
+    """A regrowth NCA's experiment run again from its file (`replay_regrowth`).
+
+    Attributes:
+      robots: {"original", "damaged" (cleaned), "regrown"}.
+      similarity: cells of the regrown grid equal to the original's.
+      report: the three robots' walks.
+      metadata: the file's record (robot, source, start, damage, similarity, GA, ...).
+    """
+
+    robots: dict[str, Robot]
+    similarity: int
+    report: RecoveryReport
+    metadata: dict
+
+
+def replay_regrowth(path: str | Path, *, physics: Physics | None = None,
+                    duration: float | None = None) -> RegrowthReplay:
+    """Regrow the robot a regrowth NCA file (``regrowth.npz`` of `run_regrowth`) records
+    from the damaged state it records, and walk the original, damaged and regrown robots.
+
+    Raises:
+      FileNotFoundError, mjregen.errors.CheckpointError: no readable NCA at `path`.
+      MjregenError: the NCA records no original robot and damaged state (not a regrowth
+        NCA's file).
+    """
+    nca, metadata = load_nca(path)
+    missing = [k for k in ("original", "damaged_state", "damaged_alpha") if k not in metadata]
+    if missing:
+        raise MjregenError(f"{path} records no {', '.join(missing)}: not a regrowth NCA "
+                           f"written by run_regrowth")
+    original = np.asarray(metadata["original"], dtype=np.int8)
+    state = torch.tensor(metadata["damaged_state"], dtype=torch.int64)[None]
+    alpha = torch.tensor(metadata["damaged_alpha"], dtype=torch.float32)[None]
+    task = RegrowthTask(nca=nca.config, original=original, damaged=CAState(state, alpha, None))
+    regrowth = task.regrow(nca.genome)
+    robots = {"original": Robot(original),
+              "damaged": Robot(state[0].numpy().astype(np.int8)).cleaned(),
+              "regrown": regrowth.robot()}
+    similarity = int(np.sum(regrowth.grids[0] == original))
+    return RegrowthReplay(robots, similarity,
+                          measure_recovery(robots, physics=physics, duration=duration), metadata)
 
 
 @dataclass(frozen=True)

@@ -11,13 +11,14 @@ occupies.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections import OrderedDict
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
 import torch
 
-from mjregen.grid import Robot, half_space_mask
+from mjregen.grid import N_MATERIALS, Robot, half_space_mask
 from mjregen.growth.nca import CAState, Growth, NCAConfig, grow
 from mjregen.tasks.evaluation import PopulationEvaluation
 
@@ -26,25 +27,50 @@ if TYPE_CHECKING:  # the search layer hands a task its backend
 
 
 def state_of_growth(growth: Growth, index: int = 0) -> CAState:
-    """The CA state of individual `index` after growth *and* cleaning (cells removed by the
-    cleaning get state and alpha 0), as a population of one."""
-    keep = torch.from_numpy(growth.grids[index] != 0)
+    """The CA state of individual `index` as the paper's code keeps a grown robot, the state
+    its regeneration damages: the cleaned grid as the states (cells the cleaning removed are
+    empty), every cell's grown alpha (an empty cell that is alive keeps its alpha) and
+    memory; a population of one."""
     final = growth.final
     memory = None if final.memory is None else tuple(m[index : index + 1].clone() for m in final.memory)
     return CAState(
         state=torch.from_numpy(growth.grids[index].astype(np.int64))[None],
-        alpha=torch.where(keep, final.alpha[index], 0.0)[None],
+        alpha=final.alpha[index : index + 1].clone(),
         memory=memory,
     )
 
 
 def state_of_robot(robot: Robot, config: NCAConfig) -> CAState:
-    """A CA state for a robot known only by its grid (e.g. the paper's robots): state = the
-    grid, alpha 1 on voxels and 0 elsewhere, LSTM memory ones (a fresh network's)."""
+    """A CA state for a robot known only by its grid (e.g. the paper's tripod and multiped):
+    state = the grid, alpha 1 on voxels and 0 elsewhere, LSTM memory ones (a fresh
+    network's)."""
     if robot.shape != config.grid_shape:
         raise ValueError(f"robot shape {robot.shape} does not match the NCA grid {config.grid_shape}")
     state = torch.from_numpy(robot.grid.astype(np.int64))[None]
     return CAState(state, (state != 0).to(torch.float32), _fresh_memory(config, 1))
+
+
+def state_of_saved(saved: np.ndarray, config: NCAConfig) -> CAState:
+    """The CA state the paper's code saves for a grown robot, ``(2, *grid)`` (channel 0 the
+    states, channel 1 the alphas; e.g. the shipped ``robots/paper/biped_ca_state.npy``), as
+    a population of one; LSTM memory ones (the paper resets it on damage).
+
+    Raises:
+      ValueError: not ``(2, *config.grid_shape)``, states that are not material codes, or
+        alphas outside [0, 1].
+    """
+    saved = np.asarray(saved)
+    if saved.shape != (2, *config.grid_shape):
+        raise ValueError(f"a saved CA state must have shape {(2, *config.grid_shape)}, "
+                         f"got {saved.shape}")
+    states, alphas = saved[0], saved[1]
+    if not np.all(np.isin(states, np.arange(N_MATERIALS))):
+        raise ValueError(f"saved states must be material codes 0..{N_MATERIALS - 1}")
+    if not (np.all(np.isfinite(alphas)) and alphas.min() >= 0.0 and alphas.max() <= 1.0):
+        raise ValueError("saved alphas must lie in [0, 1]")
+    state = torch.from_numpy(states.astype(np.int64))[None]
+    alpha = torch.from_numpy(alphas.astype(np.float32))[None]
+    return CAState(state, alpha, _fresh_memory(config, 1))
 
 
 def _fresh_memory(config: NCAConfig, population: int) -> tuple[torch.Tensor, torch.Tensor] | None:
@@ -123,11 +149,17 @@ class RegrowthTask:
       damaged: the damaged CA state (a population of one). A feed-forward regrowth NCA
         ignores its memory; an LSTM one starts with fresh memory (ones), as the paper's code
         does, since the damaged state's memory belongs to another network.
+      cache_size: regrown grids kept across generations by genome (least recently used
+        dropped first): the GA's elites are not regrown again. Growth is deterministic and
+        each individual's alone or in a batch, so the cache changes no result.
     """
 
     nca: NCAConfig
     original: np.ndarray
     damaged: CAState
+    cache_size: int = 5_000
+    _cache: OrderedDict = field(default_factory=OrderedDict, init=False, repr=False,
+                                compare=False)
 
     def start(self, population: int) -> CAState:
         """The damaged state repeated for `population` individuals."""
@@ -142,10 +174,25 @@ class RegrowthTask:
 
     def evaluate(self, genomes: np.ndarray, backend: Backend) -> PopulationEvaluation:
         """Fitness = `similarity` to the original (no physics; `backend` is not needed)."""
-        grids = self.regrow(genomes).grids
+        genomes = np.asarray(genomes, dtype=np.float32)
+        keys = [genome.tobytes() for genome in genomes]
+        first: dict[bytes, int] = {}  # each genome not seen before, regrown once
+        for i, key in enumerate(keys):
+            if key not in self._cache:
+                first.setdefault(key, i)
+        new = list(first.values())
+        if new:
+            for i, grid in zip(new, self.regrow(genomes[new]).grids):
+                self._cache[keys[i]] = grid
+        for key in keys:
+            self._cache.move_to_end(key)
+        grids = np.stack([self._cache[key] for key in keys])
+        while len(self._cache) > max(self.cache_size, len(genomes)):
+            self._cache.popitem(last=False)
         score = similarity(grids, self.original)
         return PopulationEvaluation(
             fitness=score.astype(np.float64), grids=grids,
             details={"similarity": score, "robot_similarity": robot_similarity(grids, self.original),
                      "voxels": np.count_nonzero(grids.reshape(len(grids), -1), axis=1)},
+            n_distinct=len({grid.tobytes() for grid in grids}),
         )

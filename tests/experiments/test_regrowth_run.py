@@ -26,10 +26,11 @@ def test_a_regrowth_starts_from_exactly_one_source():
         regrowth_source(robot=WALKER_2D, paper="biped")
     with pytest.raises(MjregenError, match="unknown paper robot 'hexapod'"):
         regrowth_source(paper="hexapod")
-    biped = regrowth_source(paper="biped")
-    assert biped.robot == Robot.load(asset("robots", "paper", "biped.npy"))
-    alive = biped.state.alpha[0].numpy() > 0
-    assert np.array_equal(alive, biped.robot.grid != 0)  # a robot file: every voxel alive
+    tripod = regrowth_source(paper="tripod")
+    assert tripod.robot == Robot.load(asset("robots", "paper", "tripod.npy"))
+    alpha = tripod.state.alpha[0].numpy()
+    assert np.array_equal(alpha, (tripod.robot.grid != 0).astype(np.float32))  # alpha 1
+    assert tripod.label == "assets/robots/paper/tripod.npy" and tripod.start == "alpha 1"
 
 
 def test_run_regrowth_returns_what_it_writes(tmp_path):

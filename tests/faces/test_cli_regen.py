@@ -34,3 +34,22 @@ def test_regen_rejects_a_robot_of_the_wrong_size(tmp_path, capsys):
     Robot(np.pad([[1, 1], [3, 4]], 1)).save(tmp_path / "small.npy")
     assert main(["regen", "--robot", str(tmp_path / "small.npy"), "--out", str(tmp_path / "r")]) == 1
     assert "needs the NCA grid (7, 7)" in capsys.readouterr().err
+
+
+def test_regen_replay_regrows_what_the_run_recorded(tmp_path, capsys):
+    out = tmp_path / "regen"
+    assert main(["regen", "--robot", WALKER_2D, "--pop", "8", "--gens", "2", "--truncation", "4",
+                 "--elites", "2", "--out", str(out), "--no-video", "--quiet", "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert main(["regen", "--replay", str(out / "regrowth.npz"), "--json"]) == 0
+    replay = json.loads(capsys.readouterr().out)
+    assert replay["similarity"] == replay["recorded_similarity"] == report["similarity"]["regrown"]
+    assert replay["distance"] == report["distance"]
+    assert replay["damage"] == "paper cut"
+
+
+def test_regen_replay_refuses_an_nca_that_regrows_nothing(capsys):
+    assert main(["regen", "--replay", "assets/nca/walker_3d.npz"]) == 1
+    assert "not a regrowth NCA" in capsys.readouterr().err
+    assert main(["regen", "--paper", "tripod"]) == 1
+    assert "--out is required" in capsys.readouterr().err

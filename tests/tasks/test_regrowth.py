@@ -7,7 +7,7 @@ import pytest
 import torch
 
 from mjregen.grid import Robot
-from mjregen.growth.nca import NCA, NCAConfig
+from mjregen.growth.nca import NCA, CAState, NCAConfig
 from mjregen.growth.networks import CellNetwork, network_to_genome, random_genomes
 from mjregen.search.backends import SerialBackend
 from mjregen.search.ga import GAConfig, GeneticAlgorithm
@@ -20,6 +20,7 @@ from mjregen.tasks.regrowth import (
     similarity,
     state_of_growth,
     state_of_robot,
+    state_of_saved,
 )
 
 BLOCK = Robot(np.pad(np.arange(1, 5).repeat(7 * 7 * 7 // 4 + 1)[:343].reshape(7, 7, 7), 1))
@@ -153,10 +154,83 @@ def test_shipped_walker_regrowth_ncas_regrow_what_walkers_json_records(name):
                   if w["name"] == name)
     walker, _ = load_nca(f"assets/robots/walkers/{name}.npz")
     growth = walker.grow()
-    damaged = paper_cut(state_of_growth(growth))
+    grown = state_of_growth(growth)
+    # these NCAs were evolved from the grown state with the empty cells' alpha zeroed
+    # (assets/regen/README.md), not the paper's start, which keeps it
+    start = CAState(grown.state, torch.where(grown.state != 0, grown.alpha, 0.0), grown.memory)
+    damaged = paper_cut(start)
     regrowth, _ = load_nca(f"assets/regen/{name}_ff.npz")
     task = RegrowthTask(nca=regrowth.config, original=growth.grids[0], damaged=damaged)
     regrown = task.regrow(regrowth.genome).grids
     expected = record["regrowth"]["ff"]["similarity"]
     assert int(similarity(regrown, growth.grids[0])[0]) == expected["regrown"]
     assert regrown[0].any()
+
+
+def test_genomes_seen_before_are_not_regrown_and_score_the_same(monkeypatch):
+    """The GA's elites come back every generation: their grids come from the task's cache,
+    with the same fitness a fresh task gives them."""
+    config = NCAConfig(dim=2, kind="ff")
+    walker = Robot.load("assets/robots/bimorph_walker_2d.npy")
+    damaged = paper_cut(state_of_robot(walker, config))
+    first, second = random_genomes(config, 6, seed=1), random_genomes(config, 6, seed=2)
+    task = RegrowthTask(nca=config, original=walker.grid, damaged=damaged)
+    regrown = []
+    original_regrow = RegrowthTask.regrow
+
+    def counting(self, genomes):
+        regrown.append(len(genomes))
+        return original_regrow(self, genomes)
+
+    monkeypatch.setattr(RegrowthTask, "regrow", counting)
+    task.evaluate(first, SerialBackend())
+    mixed = np.concatenate([first[:3], second[:3], second[:1]])
+    cached = task.evaluate(mixed, SerialBackend())
+    monkeypatch.undo()
+    assert regrown == [6, 3]  # the three new genomes, the repeated one once
+    fresh = RegrowthTask(nca=config, original=walker.grid, damaged=damaged).evaluate(mixed, None)
+    assert np.array_equal(cached.fitness, fresh.fitness)
+    assert np.array_equal(cached.grids, fresh.grids)
+
+
+def test_the_grown_state_keeps_the_alpha_of_empty_cells_that_are_alive():
+    """The paper regrows from the CA state as grown: an empty cell that is alive keeps its
+    alpha, and it takes part in the regrowth (a neighbour of alpha > 0.1 lives)."""
+    config = NCAConfig(dim=3, kind="ff")
+    for seed in range(20):
+        growth = NCA.random(config, seed=seed).grow()
+        alive_empty = (growth.grids[0] == 0) & (growth.final.alpha[0].numpy() > 0.1)
+        if alive_empty.any():
+            break
+    else:
+        pytest.fail("no random NCA grew an empty cell that is alive")
+    state = state_of_growth(growth)
+    assert np.array_equal(state.alpha[0].numpy(), growth.final.alpha[0].numpy())
+    assert np.array_equal(state.state[0].numpy(), growth.grids[0])
+
+
+def test_the_paper_biped_regrows_from_the_state_its_code_saved():
+    from mjregen.experiments.regrowth import regrowth_source
+
+    source = regrowth_source(paper="biped")
+    saved = np.load("assets/robots/paper/biped_ca_state.npy")
+    alpha = source.state.alpha[0].numpy()
+    assert source.start == "saved" and np.allclose(alpha, saved[1], atol=1e-7)
+    voxels = source.robot.grid != 0
+    assert np.count_nonzero(alpha[voxels] <= 0.1) == 151 and np.count_nonzero(alpha[~voxels] > 0) == 1
+    assert regrowth_source(paper="tripod").start == "alpha 1"
+
+
+def test_a_saved_state_of_the_wrong_kind_is_refused():
+    config = NCAConfig(dim=3, kind="ff")
+    good = np.load("assets/robots/paper/biped_ca_state.npy")
+    with pytest.raises(ValueError, match="shape"):
+        state_of_saved(good[:, :7], config)
+    bad = good.copy()
+    bad[0, 4, 4, 4] = 7
+    with pytest.raises(ValueError, match="material codes"):
+        state_of_saved(bad, config)
+    bad = good.copy()
+    bad[1, 4, 4, 4] = np.nan
+    with pytest.raises(ValueError, match=r"\[0, 1\]"):
+        state_of_saved(bad, config)
