@@ -414,34 +414,42 @@ class Report:
         self.paper_rows = rows
 
     def paper_robot_regrowth(self) -> None:
-        """Rows for the paper's own robots regrown by the shipped regrowth NCAs
-        (assets/regen/<robot>_<net>.npz), simulated now with today's default physics."""
-        from mjregen.experiments.recovery import measure_recovery, regrowth_robots
-        from mjregen.grid import Robot
-        from mjregen.growth.checkpoint import load_nca
-
-        shipped = sorted(path for path in (self.args.assets / "regen").glob("*.npz")
-                         if (PAPER_ROBOTS / f"{path.stem.split('_')[0]}.npy").is_file())
-        if not shipped:
+        """Table 1 side by side: the paper's robots regrown by the shipped regrowth NCAs
+        (assets/regen/manifest.json: each replayed by scripts/ship_regrowth.py and by
+        tests/test_assets.py with today's default physics) and the paper's numbers."""
+        path = self.args.assets / "regen" / "manifest.json"
+        entries = [e for e in (json.loads(path.read_text()).values() if path.is_file() else [])
+                   if (PAPER_ROBOTS / f"{e['robot']}.npy").is_file()]
+        if not entries:
             return
-        self.add("**The paper's robots, regrown by the shipped regrowth NCAs** (`assets/regen/`; "
-                 "the same cut; default physics, simulated by this script)", "",
-                 "| robot (regrowth network) | similarity | original | damaged (% of original) | "
-                 "regrown (% of original) |", "|---|---|---|---|---|")
-        for path in shipped:
-            robot_name, net = path.stem.split("_", 1)
-            nca, _ = load_nca(path)
-            report = measure_recovery(regrowth_robots(Robot.load(PAPER_ROBOTS / f"{robot_name}.npy"), nca))
-            sim, pct, dist = report.similarity["regrown"], report.to_dict()["percent_of_original"], report.distance
-            self.add(f"| {robot_name.capitalize()} ({NAMES.get(net, net)}) | "
-                     f"{100 * sim / report.grid_cells:.0f} % ({sim}/{report.grid_cells}) | "
-                     f"{fmt(dist['original'], 3)} | {fmt(dist['damaged'], 3)} ({percent(pct['damaged'])} %) | "
-                     f"{fmt(dist['regrown'], 3)} ({percent(pct['regrown'])} %) |")
+        paper = {(r["robot"].lower(), r["network"]): r for r in paper_table_1(self.args.paper)[0]}
+        self.add("**Table 1: the paper's robots regrown** (ours: the shipped regrowth NCAs of "
+                 "`assets/regen/manifest.json`, the paper's cut, today's default physics; the "
+                 "paper: its Table 1)", "",
+                 "| robot (regrowth network) | start | GA | similarity ours / paper | original "
+                 "ours / paper | damaged ours / paper | regrown ours / paper |",
+                 "|---|---|---|---|---|---|---|")
+        for e in sorted(entries, key=lambda e: (e["robot"], e["net"])):
+            dist, pct = e["distance"], e["percent_of_original"]
+            theirs = paper.get((e["robot"], "recurrent" if e["net"] == "lstm" else "feed forward"))
+            other = (lambda key, pkey: f" / {theirs[key]:g} ({theirs[pkey]:g} %)") if theirs else (lambda *_: "")
+            ga = e["ga"]
+            self.add(f"| {e['robot'].capitalize()} ({NAMES.get(e['net'], e['net'])}) | {e['start']} | "
+                     f"{ga['population']} × {e['generations_run']} | {e['similarity']}/{e['grid_cells']}"
+                     + (f" / {theirs['similarity']}/{theirs['grid_cells']}" if theirs else "") + " | "
+                     f"{fmt(dist['original'], 3)}" + (f" / {theirs['original']:g}" if theirs else "") + " | "
+                     f"{fmt(dist['damaged'], 3)} ({percent(pct['damaged'])} %)"
+                     + other("damaged", "damaged_percent") + " | "
+                     f"{fmt(dist['regrown'], 3)} ({percent(pct['regrown'])} %)"
+                     + other("regrown", "regrown_percent") + " |")
             self.facts.append(
-                f"The paper's {robot_name} regrown by the shipped NCA ({sim}/{report.grid_cells} cells): "
-                f"damaged walks {percent(pct['damaged'])} %, regrown {percent(pct['regrown'])} % of its "
+                f"The paper's {e['robot']} regrown by the shipped {NAMES.get(e['net'], e['net'])} "
+                f"NCA: {e['similarity']}/{e['grid_cells']} cells; damaged walks "
+                f"{percent(pct['damaged'])} %, regrown {percent(pct['regrown'])} % of its "
                 f"{fmt(dist['original'], 3)} voxel lengths here.")
-        self.add("")
+        self.add("", "Start: the CA state regrown from (\"saved\": the biped's as the paper's "
+                 "code saved it; \"alpha 1\": the grid alone, as only the tripod's and "
+                 "multiped's grids were published). GA: population × generations run.", "")
 
     def discussion(self) -> None:
         self.add("## Discussion", "", "Measured facts (written by the script):", "")
