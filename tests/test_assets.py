@@ -111,3 +111,29 @@ def test_shipped_physics_descriptions_migrate_to_what_they_were_evaluated_with(k
     assert migrated["format"] == PHYSICS_FORMAT and migrated["pipeline"]["name"] == "voxel"
     assert Physics.from_dict(migrated) == physics
     assert Physics.from_dict(json.loads(json.dumps(physics.to_dict()))) == physics
+
+
+REGEN_DIR = NCA_DIR.parent / "regen"
+REGEN = json.loads((REGEN_DIR / "manifest.json").read_text())
+PAPER_ROBOTS = ("biped", "tripod", "multiped")
+
+
+def test_every_shipped_regrowth_of_a_paper_robot_has_a_manifest_entry():
+    shipped = {p.name for p in REGEN_DIR.glob("*.npz") if p.stem.split("_")[0] in PAPER_ROBOTS}
+    assert shipped and shipped == set(REGEN)
+
+
+@pytest.mark.parametrize("key", sorted(REGEN))
+def test_shipped_regrowth_nca_reproduces_its_manifest(key):
+    """Replayed as scripts/ship_regrowth.py replayed it: the recorded damaged state regrown
+    by the NCA (the cells exactly), the three robots walked with the default physics."""
+    from mjregen.experiments.regrowth import replay_regrowth
+
+    entry = REGEN[key]
+    path = REGEN_DIR / entry["file"]
+    assert sha256(path) == entry["sha256"]
+    replay = replay_regrowth(path)
+    assert replay.similarity == entry["similarity"] == replay.metadata["similarity"]
+    assert replay.metadata["robot"] == entry["robot"] and replay.metadata["start"] == entry["start"]
+    for role, distance in replay.report.distance.items():
+        assert distance == pytest.approx(entry["distance"][role], rel=RTOL, abs=ATOL), role

@@ -6,7 +6,9 @@ its fitness (`mjregen.tasks.locomotion.LocomotionTask`) and its run counts (10 r
 3D). The regrowth experiment: three diverse evolved 3D walkers (`mjregen.experiments.walkers`), the
 paper's cut (`mjregen.tasks.regrowth.paper_cut`, grid x-indices 0-3 of 9 removed), a regrowth NCA
 evolved with the paper's regeneration GA (`PRESETS["regen"]`), then the locomotion
-recovery of the original, damaged and regrown robot (`mjregen.experiments.recovery`).
+recovery of the original, damaged and regrown robot (`mjregen.experiments.recovery`); its
+jobs are `mjregen.experiments.regrowth.regen_jobs`. Reading run folders: `read_run`,
+`list_runs`, `best_run`, `list_regen_runs`.
 
 A `Scale` says how much of that is run: "paper" is the paper's, "quick" a named reduced
 scale that fits about an hour on two cores, "smoke" seconds of work for tests. Every number
@@ -17,7 +19,8 @@ can be overridden (`evolution_jobs`). Run folders (each a `mjregen.search.runs` 
     <root>/regen_<walker>_<net>/seed_<n>    regrowth runs, with recovery.json/.md
 
 An evolution here writes exactly the folder that the printed `mjregen evolve` command
-writes (same config.json), so either can resume the other.
+writes (same config.json, through `mjregen.experiments.locomotion.evolve_locomotion`), so
+either can resume the other.
 """
 
 from __future__ import annotations
