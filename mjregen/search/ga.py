@@ -105,6 +105,8 @@ class GeneticAlgorithm:
             0.0, config.init_std, size=(config.population, genome_size)
         ).astype(np.float32)
         self._asked = False
+        self._pool: np.ndarray | None = None  # what the population was bred from
+        self._breed_state: dict | None = None
 
     def ask(self) -> np.ndarray:
         """The current population, float32 ``(population, genome_size)``; elites first."""
@@ -128,30 +130,55 @@ class GeneticAlgorithm:
         if np.any(np.isnan(fitness)):
             raise ValueError("fitness contains NaN; give failed individuals a finite penalty")
         ranking = np.argsort(-fitness, kind="stable")
-        ranked = self._population[ranking]
-        n_children = self.config.population - self.config.elites
-        parents = self.rng.integers(0, self.config.truncation, size=n_children)
-        noise = self.rng.standard_normal(size=(n_children, self.genome_size))
-        children = (ranked[parents] + self.config.sigma * noise).astype(np.float32)
-        self._population = np.concatenate([ranked[: self.config.elites], children])
+        self._pool = self._population[ranking[: max(self.config.truncation, self.config.elites)]]
+        self._breed_state = self.rng.bit_generator.state
+        self._population = self._breed(self._pool)
         self.generation += 1
         self._asked = False
         return ranking
 
+    def _breed(self, pool: np.ndarray) -> np.ndarray:
+        """The next population from the ranked best ``pool`` (elites and parents): the top
+        `elites` unchanged, then children of parents drawn from the top `truncation`."""
+        n_children = self.config.population - self.config.elites
+        parents = self.rng.integers(0, self.config.truncation, size=n_children)
+        noise = self.rng.standard_normal(size=(n_children, self.genome_size))
+        children = (pool[parents] + self.config.sigma * noise).astype(np.float32)
+        return np.concatenate([pool[: self.config.elites], children])
+
     def state_dict(self) -> dict:
-        """Everything needed to continue exactly: population, generation, RNG state."""
-        return {
-            "config": self.config.to_dict(),
-            "genome_size": self.genome_size,
-            "generation": self.generation,
-            "population": self._population.copy(),
-            "rng_state": self.rng.bit_generator.state,
-        }
+        """Everything needed to continue exactly: the generation and, once a generation is
+        told, only what the current population was bred from (the ranked best
+        ``max(truncation, elites)`` genomes and the random state before breeding), from
+        which `from_state_dict` breeds it again bit for bit; before that the population
+        itself. A run's checkpoint is then max(truncation, elites)/population of the
+        population's size (the paper's GAs: a fifth)."""
+        state = {"config": self.config.to_dict(), "genome_size": self.genome_size,
+                 "generation": self.generation}
+        if self._pool is None:  # nothing told yet (or since a checkpoint of a population)
+            return {**state, "population": self._population.copy(),
+                    "rng_state": self.rng.bit_generator.state}
+        return {**state, "parents": self._pool.copy(), "rng_state": self._breed_state}
 
     @classmethod
     def from_state_dict(cls, state: dict) -> GeneticAlgorithm:
-        """Rebuild an optimiser saved with `state_dict`; it continues bit for bit."""
+        """Rebuild an optimiser saved with `state_dict` (or with a whole "population", as
+        earlier checkpoints hold it); it continues bit for bit.
+
+        Raises:
+          ValueError: the saved genomes do not have the configuration's shape.
+        """
         ga = cls(GAConfig(**state["config"]), int(state["genome_size"]), seed=0)
+        ga.generation = int(state["generation"])
+        ga.rng.bit_generator.state = state["rng_state"]
+        if "parents" in state:
+            pool = np.asarray(state["parents"], dtype=np.float32)
+            expected = (max(ga.config.truncation, ga.config.elites), ga.genome_size)
+            if pool.shape != expected:
+                raise ValueError(f"saved parents have shape {pool.shape}, expected {expected}")
+            ga._pool, ga._breed_state = pool.copy(), state["rng_state"]
+            ga._population = ga._breed(ga._pool)
+            return ga
         population = np.asarray(state["population"], dtype=np.float32)
         if population.shape != (ga.config.population, ga.genome_size):
             raise ValueError(
@@ -159,6 +186,4 @@ class GeneticAlgorithm:
                 f"({ga.config.population}, {ga.genome_size})"
             )
         ga._population = population.copy()
-        ga.generation = int(state["generation"])
-        ga.rng.bit_generator.state = state["rng_state"]
         return ga

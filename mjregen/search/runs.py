@@ -115,14 +115,17 @@ class RunSummary:
     best_genome: np.ndarray
 
 
+GENOME_ARRAYS = ("population", "parents")  # what a GA state holds its genomes in
+
+
 def _checkpoint_save(path: Path, ga: GeneticAlgorithm, best: dict) -> None:
     state = ga.state_dict()
-    population = state.pop("population")
+    genomes = {name: state.pop(name) for name in GENOME_ARRAYS if name in state}
     state.update(best_fitness=best["best_fitness"], best_generation=best["best_generation"],
                  config_sha256=_config_hash(path.with_name("config.json")))
     with atomic_open(path) as handle:
-        np.savez(handle, format=np.array(RUN_FORMAT), population=population,
-                 best_genome=best["best_genome"], state=np.array(json.dumps(state)))
+        np.savez(handle, format=np.array(RUN_FORMAT), best_genome=best["best_genome"],
+                 state=np.array(json.dumps(state)), **genomes)
 
 
 def _checkpoint_load(path: Path) -> tuple[GeneticAlgorithm, dict]:
@@ -131,7 +134,10 @@ def _checkpoint_load(path: Path) -> tuple[GeneticAlgorithm, dict]:
             if str(archive["format"]) != RUN_FORMAT:
                 raise CheckpointError(f"{path} is not an mjregen run checkpoint")
             state = json.loads(str(archive["state"]))
-            population, best_genome = archive["population"], archive["best_genome"]
+            genomes = {name: archive[name] for name in GENOME_ARRAYS if name in archive}
+            best_genome = archive["best_genome"]
+            if not genomes:
+                raise KeyError("population")
     except (KeyError, ValueError, OSError, EOFError, zipfile.BadZipFile) as error:
         raise CheckpointError(f"cannot read run checkpoint {path}: {error}") from None
     config_hash = state.pop("config_sha256", None)  # absent in older checkpoints
@@ -141,7 +147,10 @@ def _checkpoint_load(path: Path) -> tuple[GeneticAlgorithm, dict]:
                              "differs): restore the file, or start a new run")
     best = {"best_fitness": state.pop("best_fitness"), "best_generation": state.pop("best_generation"),
             "best_genome": best_genome}
-    return GeneticAlgorithm.from_state_dict({**state, "population": population}), best
+    try:
+        return GeneticAlgorithm.from_state_dict({**state, **genomes}), best
+    except ValueError as error:
+        raise CheckpointError(f"run checkpoint {path} does not fit its run: {error}") from None
 
 
 def _prepare_folder(out: Path, config: dict, *, resume: bool, force: bool) -> bool:

@@ -76,6 +76,39 @@ def test_same_seed_same_run_and_state_dict_resumes_bit_for_bit():
     assert not np.array_equal(run(GeneticAlgorithm(config, 50, seed=10), 1)[0], full[0])
 
 
+def test_a_saved_state_holds_only_what_the_population_was_bred_from():
+    """After a generation the state keeps the ranked top max(truncation, elites) genomes
+    and the random state before breeding (a fifth of the population at the paper's
+    settings); a state holding the whole population (earlier checkpoints) continues the
+    same."""
+    config = GAConfig(population=30, generations=9, truncation=6, elites=4, sigma=0.1)
+    rng = np.random.default_rng(0)
+
+    def step(ga):
+        population = ga.ask()
+        ga.tell(rng.normal(size=len(population)))
+        return population
+
+    ga = GeneticAlgorithm(config, 40, seed=2)
+    assert "population" in ga.state_dict()  # nothing told yet
+    for _ in range(2):
+        step(ga)
+    state = ga.state_dict()
+    assert "population" not in state and state["parents"].shape == (6, 40)
+    lean = GeneticAlgorithm.from_state_dict(state)
+    whole = GeneticAlgorithm.from_state_dict(
+        {**{k: v for k, v in state.items() if k != "parents"}, "population": ga.ask(),
+         "rng_state": ga.rng.bit_generator.state})
+    assert np.array_equal(lean.ask(), ga.ask()) and np.array_equal(whole.ask(), ga.ask())
+    fitness = rng.normal(size=30)
+    for other in (lean, whole):
+        other.tell(fitness)
+    ga.tell(fitness)
+    assert np.array_equal(lean.ask(), ga.ask()) and np.array_equal(whole.ask(), ga.ask())
+    with pytest.raises(ValueError, match="parents have shape"):
+        GeneticAlgorithm.from_state_dict({**state, "parents": state["parents"][:3]})
+
+
 def test_presets_are_the_papers_settings():
     assert PRESETS["2d"] == GAConfig(300, 500, 60, 1, 0.03)
     assert PRESETS["3d"] == GAConfig(100, 300, 20, 20, 0.1)
