@@ -15,6 +15,7 @@ NOT_RUN = {
     "pip install": "the install itself (CI runs it before these tests)",
     "scripts/paper_experiments.py --scale quick": "runs for an hour (--dry-run of it is run)",
     "scripts/ship_assets.py": "replaces the project's shipped assets",
+    "scripts/ship_regrowth.py": "replaces the project's shipped regrowth NCAs",
     "scripts/results_report.py": "rewrites the project's docs/results.md",
 }
 # the scale: populations, generations, walks and videos made small
