@@ -148,17 +148,19 @@ def run_regrowth(*, source: RegrowthSource, out: str | Path, damage: str | None 
       mjregen.errors.InvalidGridError: an unreadable damage condition.
       mjregen.search.runs.RunFolderError: `out` holds another run or nothing to resume.
     """
-    out = Path(out)
+    out, ga = Path(out), ga or PRESETS["regen"]
+    name = name or Path(source.label).stem
     damaged = paper_cut(source.state) if damage is None else cut_half_space(source.state, damage)
     config = NCAConfig(dim=source.robot.dim, kind=net)
     task = RegrowthTask(nca=config, original=np.asarray(source.robot.grid),
                         damaged=CAState(damaged.state, damaged.alpha, None))
     task_config = {
         "task": "regrowth", "nca": config.to_dict(), "source": source.label,
-        "start": source.start, "damage": damage or "paper cut", "original": source.robot.grid.tolist(),
-        "damaged_state": damaged.state[0].tolist(), "damaged_alpha": damaged.alpha[0].tolist(),
+        "start": source.start, "damage": damage or "paper cut",
+        "original": source.robot.grid.tolist(), "damaged_state": damaged.state[0].tolist(),
+        "damaged_alpha": damaged.alpha[0].tolist(),
     }
-    summary = run_evolution(task, ga or PRESETS["regen"], seed=seed, out=out,
+    summary = run_evolution(task, ga, seed=seed, out=out,
                             backend=SerialBackend(), task_config=task_config, resume=resume,
                             force=force, progress=progress)
     regrowth = task.regrow(summary.best_genome)
@@ -168,13 +170,12 @@ def run_regrowth(*, source: RegrowthSource, out: str | Path, damage: str | None 
     for role, robot in robots.items():
         robot.save(out / f"{role}.npy", overwrite=True)
     save_nca(out / REGROWTH_FILE, NCA(config, summary.best_genome), overwrite=True, metadata={
-        "robot": name or Path(source.label).stem, "source": source.label, "start": source.start,
-        "damage": damage or "paper cut", "similarity": int(summary.best_fitness),
-        "generation": summary.best_generation, "seed": seed, "ga": (ga or PRESETS["regen"]).to_dict(),
-        "original": task_config["original"], "damaged_state": task_config["damaged_state"],
-        "damaged_alpha": task_config["damaged_alpha"]})
+        "robot": name, "similarity": int(summary.best_fitness),
+        "generation": summary.best_generation, "seed": seed, "ga": ga.to_dict(),
+        **{key: task_config[key] for key in ("source", "start", "damage", "original",
+                                              "damaged_state", "damaged_alpha")}})
     report = measure_recovery(robots, physics=physics, duration=duration)
-    write_report(report, out, name=name or Path(source.label).stem)
+    write_report(report, out, name=name)
     return RegrowthRun(summary, robots, regrowth, report)
 
 
@@ -268,7 +269,8 @@ def regen_folder(root: str | Path, walker: str, net: str, seed: int) -> Path:
 def regen_jobs(scale: Scale, walkers: list[dict], *, root: str | Path = DEFAULT_ROOT,
                population: int | None = None, generations: int | None = None,
                nets: tuple[str, ...] | None = None) -> list[RegenJob]:
-    """The regrowth runs of `scale` for `walkers` (from `mjregen.experiments.walkers.load_or_pick_walkers`)."""
+    """The regrowth runs of `scale` for `walkers` (from
+    `mjregen.experiments.walkers.load_or_pick_walkers`)."""
     ga = scaled_ga(PRESETS["regen"], population or scale.regen_population,
                    generations or scale.regen_generations)
     jobs = []
