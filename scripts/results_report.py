@@ -434,8 +434,6 @@ class Report:
 
     def regrowth_curves(self) -> None:
         """Best similarity per generation of each regrowth run (--regrowth-runs)."""
-        import csv
-
         from mjregen.plotting import line_axes, save_png
 
         runs = [Path(r) for r in self.args.regrowth_runs if (Path(r) / "metrics.csv").is_file()]
@@ -444,8 +442,7 @@ class Report:
         figure, ax = line_axes(xlabel="generation", ylabel="cells equal to the original (of 729)",
                                title="regrowth: best similarity per generation")
         for run in runs:
-            with (run / "metrics.csv").open() as handle:
-                best = [float(row["best"]) for row in csv.DictReader(handle)]
+            best = ex.read_run(run).best
             ax.plot(range(len(best)), best, label=run.name)
         path = self.figures / "table1_similarity.png"
         save_png(figure, path)

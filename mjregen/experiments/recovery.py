@@ -15,17 +15,10 @@ import numpy as np
 
 from mjregen.fileio import atomic_open
 from mjregen.grid import Robot
-from mjregen.growth.nca import NCA
 from mjregen.physics import Physics
 from mjregen.physics.simulation import simulate
 from mjregen.tasks.fitness import locomotion_fitness
-from mjregen.tasks.regrowth import (
-    RegrowthTask,
-    paper_cut,
-    robot_similarity,
-    similarity,
-    state_of_robot,
-)
+from mjregen.tasks.regrowth import robot_similarity, similarity
 
 ROLES = ("original", "damaged", "regrown")
 MEANINGFUL_DISTANCE = 0.01  # voxel lengths: a walk shorter than this is no reference
@@ -123,19 +116,6 @@ def measure_recovery(robots: dict[str, Robot], *, physics: Physics | None = None
         stable={role: results[role].stable for role in ROLES},
         duration=float(physics.scene.timing(dim)[1] if duration is None else duration),
     )
-
-
-def regrowth_robots(original: Robot, regrowth: NCA) -> dict[str, Robot]:
-    """The paper's experiment on a given robot: cut it (`paper_cut`, grid x-indices 0–3
-    emptied), let `regrowth` (an NCA evolved to regrow it) grow from the damaged state.
-
-    Returns {"original", "damaged" (cleaned), "regrown"} robots, as `measure_recovery` takes.
-    """
-    damaged = paper_cut(state_of_robot(original, regrowth.config))
-    task = RegrowthTask(nca=regrowth.config, original=np.asarray(original.grid), damaged=damaged)
-    regrown = task.regrow(regrowth.genome).robot()
-    damaged_robot = Robot(damaged.state[0].numpy().astype(np.int8)).cleaned()
-    return {"original": original, "damaged": damaged_robot, "regrown": regrown}
 
 
 def write_report(report: RecoveryReport, folder: str | Path, *, name: str = "robot") -> list[Path]:

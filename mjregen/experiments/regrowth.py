@@ -33,7 +33,9 @@ from mjregen.search.runs import RunSummary, run_evolution
 from mjregen.tasks.regrowth import (
     RegrowthTask,
     cut_half_space,
+    damaged_robot,
     paper_cut,
+    similarity,
     state_of_growth,
     state_of_robot,
     state_of_saved,
@@ -165,7 +167,7 @@ def run_regrowth(*, source: RegrowthSource, out: str | Path, damage: str | None 
                             force=force, progress=progress)
     regrowth = task.regrow(summary.best_genome)
     robots = {"original": source.robot,
-              "damaged": Robot(damaged.state[0].numpy().astype(np.int8)).cleaned(),
+              "damaged": damaged_robot(damaged),
               "regrown": regrowth.robot()}
     for role, robot in robots.items():
         robot.save(out / f"{role}.npy", overwrite=True)
@@ -214,13 +216,12 @@ def replay_regrowth(path: str | Path, *, physics: Physics | None = None,
     original = np.asarray(metadata["original"], dtype=np.int8)
     state = torch.tensor(metadata["damaged_state"], dtype=torch.int64)[None]
     alpha = torch.tensor(metadata["damaged_alpha"], dtype=torch.float32)[None]
-    task = RegrowthTask(nca=nca.config, original=original, damaged=CAState(state, alpha, None))
+    damaged = CAState(state, alpha, None)
+    task = RegrowthTask(nca=nca.config, original=original, damaged=damaged)
     regrowth = task.regrow(nca.genome)
-    robots = {"original": Robot(original),
-              "damaged": Robot(state[0].numpy().astype(np.int8)).cleaned(),
+    robots = {"original": Robot(original), "damaged": damaged_robot(damaged),
               "regrown": regrowth.robot()}
-    similarity = int(np.sum(regrowth.grids[0] == original))
-    return RegrowthReplay(robots, similarity,
+    return RegrowthReplay(robots, int(similarity(regrowth.grids, original)[0]),
                           measure_recovery(robots, physics=physics, duration=duration), metadata)
 
 

@@ -73,6 +73,12 @@ def state_of_saved(saved: np.ndarray, config: NCAConfig) -> CAState:
     return CAState(state, alpha, _fresh_memory(config, 1))
 
 
+def damaged_robot(state: CAState) -> Robot:
+    """The robot a (damaged) CA state of a population of one holds, after the paper's
+    cleaning."""
+    return Robot(state.state[0].numpy().astype(np.int8)).cleaned()
+
+
 def _fresh_memory(config: NCAConfig, population: int) -> tuple[torch.Tensor, torch.Tensor] | None:
     return CAState.seed(config, population).memory
 
