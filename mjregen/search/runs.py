@@ -19,11 +19,7 @@ evaluation failed stops the run (`RunFailedError`): its results would be meaning
 
 from __future__ import annotations
 
-import csv
-import hashlib
 import json
-import shutil
-import sys
 import time
 import zipfile
 from dataclasses import dataclass
@@ -35,7 +31,7 @@ import numpy as np
 from tqdm import tqdm
 
 from mjregen import __version__, interrupt
-from mjregen.errors import CheckpointError, MjregenError
+from mjregen.errors import CheckpointError
 from mjregen.fileio import atomic_open
 from mjregen.grid import Robot
 from mjregen.growth.checkpoint import save_nca
@@ -43,9 +39,18 @@ from mjregen.growth.nca import NCA, NCAConfig
 from mjregen.plotting import line_axes, save_png
 from mjregen.search.backends import Backend
 from mjregen.search.ga import GAConfig, GeneticAlgorithm
+from mjregen.search.run_folder import (
+    RUN_FORMAT,
+    RunFailedError,
+    RunFolderError,
+    config_hash,
+    log_failures,
+    prepare_folder,
+    read_metrics,
+    write_metrics,
+)
 from mjregen.tasks.evaluation import PopulationEvaluation
 
-RUN_FORMAT = "mjregen-run-1"
 PLOT_EVERY = 10.0  # s of wall time between redraws of fitness.png (and after the last generation)
 METRICS = ("generation", "best", "mean", "median", "std", "unstable", "failed", "distinct",
            "evaluations", "evals_per_s", "wall_time", "elapsed")
@@ -57,51 +62,6 @@ class Task(Protocol):
     nca: NCAConfig
 
     def evaluate(self, genomes: np.ndarray, backend: Backend) -> PopulationEvaluation: ...
-
-
-class RunFolderError(MjregenError, ValueError):
-    """The output folder holds another run, or cannot be resumed or replaced."""
-
-
-class RunFailedError(MjregenError, RuntimeError):
-    """Every evaluation of a generation failed (the first error is in the message)."""
-
-
-def _config_hash(path: Path) -> str:
-    return hashlib.sha256(path.read_bytes()).hexdigest()
-
-
-def _read_config(path: Path) -> dict:
-    """A run's config.json, or RunFolderError naming it."""
-    try:
-        config = json.loads(path.read_text())
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
-        raise RunFolderError(f"{path} is not a readable run configuration: {error}") from None
-    if not isinstance(config, dict):
-        raise RunFolderError(f"{path} is not a run configuration (not a JSON object)")
-    return config
-
-
-def _is_run_folder(path: Path) -> bool:
-    """`path` holds an mjregen run: a config.json of this run format."""
-    try:
-        return json.loads((path / "config.json").read_text()).get("format") == RUN_FORMAT
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError, AttributeError):
-        return False
-
-
-def _check_deletable(out: Path) -> None:
-    """Raise RunFolderError unless `force` may delete `out`: an mjregen run folder that is
-    not the working directory, the home folder or one of their parents."""
-    resolved = out.resolve()
-    protected = {Path.cwd().resolve(), Path.home().resolve()}
-    if any(resolved == p or resolved in p.parents for p in protected):
-        raise RunFolderError(f"force never deletes {out} (the working directory, the home "
-                             "folder or a parent of one): choose another --out")
-    if not _is_run_folder(out):
-        raise RunFolderError(f"{out} is not empty and does not hold an mjregen run (no "
-                             f"config.json of format {RUN_FORMAT}): force only replaces run "
-                             "folders; choose another --out")
 
 
 @dataclass(frozen=True)
@@ -122,7 +82,7 @@ def _checkpoint_save(path: Path, ga: GeneticAlgorithm, best: dict) -> None:
     state = ga.state_dict()
     genomes = {name: state.pop(name) for name in GENOME_ARRAYS if name in state}
     state.update(best_fitness=best["best_fitness"], best_generation=best["best_generation"],
-                 config_sha256=_config_hash(path.with_name("config.json")))
+                 config_sha256=config_hash(path.with_name("config.json")))
     with atomic_open(path) as handle:
         np.savez(handle, format=np.array(RUN_FORMAT), best_genome=best["best_genome"],
                  state=np.array(json.dumps(state)), **genomes)
@@ -140,9 +100,9 @@ def _checkpoint_load(path: Path) -> tuple[GeneticAlgorithm, dict]:
                 raise KeyError("population")
     except (KeyError, ValueError, OSError, EOFError, zipfile.BadZipFile) as error:
         raise CheckpointError(f"cannot read run checkpoint {path}: {error}") from None
-    config_hash = state.pop("config_sha256", None)  # absent in older checkpoints
+    stored_hash = state.pop("config_sha256", None)  # absent in older checkpoints
     config_path = path.with_name("config.json")
-    if config_hash is not None and config_hash != _config_hash(config_path):
+    if stored_hash is not None and stored_hash != config_hash(config_path):
         raise RunFolderError(f"{config_path} changed since the run wrote {path.name} (its hash "
                              "differs): restore the file, or start a new run")
     best = {"best_fitness": state.pop("best_fitness"), "best_generation": state.pop("best_generation"),
@@ -151,66 +111,6 @@ def _checkpoint_load(path: Path) -> tuple[GeneticAlgorithm, dict]:
         return GeneticAlgorithm.from_state_dict({**state, **genomes}), best
     except ValueError as error:
         raise CheckpointError(f"run checkpoint {path} does not fit its run: {error}") from None
-
-
-def _prepare_folder(out: Path, config: dict, *, resume: bool, force: bool) -> bool:
-    """Create or check the run folder; returns True when an earlier run is resumed."""
-    config_path = out / "config.json"
-    if resume and force:
-        raise RunFolderError("choose either resume or force, not both")
-    if resume:
-        if not config_path.is_file():
-            raise RunFolderError(f"nothing to resume: {config_path} does not exist")
-        stored = _read_config(config_path)
-        differences = sorted(k for k in set(stored) | set(config)
-                             if k not in ("created", "mjregen_version") and stored.get(k) != config.get(k))
-        if differences:
-            raise RunFolderError(
-                f"{out} holds a run with different settings ({', '.join(differences)}); "
-                "resume it with its own settings or use another folder")
-        return (out / "checkpoint.npz").is_file()
-    if out.exists() and any(out.iterdir()):
-        if not force:
-            raise RunFolderError(f"{out} is not empty; pass resume to continue the run in it "
-                                 "or force to delete it and start again")
-        _check_deletable(out)
-        shutil.rmtree(out)
-    out.mkdir(parents=True, exist_ok=True)
-    with atomic_open(config_path, "w") as handle:
-        json.dump(config, handle, indent=2)
-    return False
-
-
-def _log_failures(path: Path, generation: int, result: PopulationEvaluation, *,
-                  progress: bool) -> None:
-    """Append a generation's failed evaluations (one line each, the first traceback) to
-    `path`, and say so on screen."""
-    with path.open("a") as handle:
-        handle.write(f"generation {generation}: {len(result.errors)} failed\n")
-        handle.writelines(f"  {line}\n" for line in result.errors)
-        if result.tracebacks and result.tracebacks[0]:
-            handle.write(result.tracebacks[0] + "\n")
-    message = (f"generation {generation}: {len(result.errors)} evaluation(s) failed, e.g. "
-               f"{result.errors[0]} (see {path})")
-    if progress:
-        tqdm.write(message)
-    else:
-        print(message, file=sys.stderr)
-
-
-def _read_metrics(path: Path, generations: int) -> list[dict]:
-    """Rows of generations < `generations` (a killed run may have written one more)."""
-    if not path.is_file():
-        return []
-    with path.open() as handle:
-        return [row for row in csv.DictReader(handle) if int(row["generation"]) < generations]
-
-
-def _write_metrics(path: Path, rows: list[dict]) -> None:
-    with atomic_open(path, "w") as handle:
-        writer = csv.DictWriter(handle, fieldnames=METRICS)
-        writer.writeheader()
-        writer.writerows(rows)
 
 
 def plot_fitness(rows: list[dict], path: Path, title: str) -> None:
@@ -285,13 +185,13 @@ def run_evolution(
         "format": RUN_FORMAT, "task": task_config, "ga": ga_config.to_dict(), "seed": seed,
         "mjregen_version": __version__, "created": datetime.now(timezone.utc).isoformat(),
     }
-    resuming = _prepare_folder(out, config, resume=resume, force=force)
+    resuming = prepare_folder(out, config, resume=resume, force=force)
     if resuming:
         ga, best = _checkpoint_load(out / "checkpoint.npz")
     else:
         ga = GeneticAlgorithm(ga_config, task.nca.genome_size, seed=seed)
         best = {"best_fitness": -np.inf, "best_generation": -1, "best_genome": None}
-    rows = _read_metrics(out / "metrics.csv", ga.generation)
+    rows = read_metrics(out / "metrics.csv", "generation", ga.generation)
     elapsed = float(rows[-1]["elapsed"]) if rows else 0.0
     (out / "best").mkdir(exist_ok=True)
     last_plot = -np.inf
@@ -304,7 +204,7 @@ def run_evolution(
         population = ga.ask()
         result = task.evaluate(population, backend)
         if result.errors:
-            _log_failures(out / "errors.log", generation, result, progress=progress)
+            log_failures(out / "errors.log", generation, result, progress=progress)
         if np.all(result.failed):
             raise RunFailedError(
                 f"every evaluation of generation {generation} failed, e.g. {result.errors[0]} "
@@ -319,7 +219,7 @@ def run_evolution(
         wall = time.perf_counter() - start
         elapsed += wall
         rows.append(_metrics_row(result, generation=generation, wall=wall, elapsed=elapsed))
-        _write_metrics(out / "metrics.csv", rows)
+        write_metrics(out / "metrics.csv", METRICS, rows)
         fitness = result.fitness
         if time.perf_counter() - last_plot > PLOT_EVERY or ga.generation == ga_config.generations:
             plot_fitness(rows, out / "fitness.png", title=out.name)

@@ -1,0 +1,139 @@
+"""What every search's run folder shares, whatever its optimiser: config.json written once
+and compared on resume, refusal to overwrite, metrics.csv rows, errors.log.
+
+A folder holds a run when its config.json has ``"format": RUN_FORMAT``. It is never
+overwritten without ``resume`` or ``force``, and ``force`` only ever deletes a folder that
+holds a run (never the working directory, the home folder or a parent of one).
+"""
+
+from __future__ import annotations
+
+import csv
+import hashlib
+import json
+import shutil
+import sys
+from pathlib import Path
+
+from tqdm import tqdm
+
+from mjregen.errors import MjregenError
+from mjregen.fileio import atomic_open
+from mjregen.tasks.evaluation import PopulationEvaluation
+
+RUN_FORMAT = "mjregen-run-1"
+
+
+class RunFolderError(MjregenError, ValueError):
+    """The output folder holds another run, or cannot be resumed or replaced."""
+
+
+class RunFailedError(MjregenError, RuntimeError):
+    """Every evaluation of a generation failed (the first error is in the message)."""
+
+
+def config_hash(path: Path) -> str:
+    """sha256 of a run's config.json, stored in its checkpoints."""
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def read_config(path: Path) -> dict:
+    """A run's config.json, or RunFolderError naming it."""
+    try:
+        config = json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
+        raise RunFolderError(f"{path} is not a readable run configuration: {error}") from None
+    if not isinstance(config, dict):
+        raise RunFolderError(f"{path} is not a run configuration (not a JSON object)")
+    return config
+
+
+def _is_run_folder(path: Path) -> bool:
+    """`path` holds an mjregen run: a config.json of this run format."""
+    try:
+        return json.loads((path / "config.json").read_text()).get("format") == RUN_FORMAT
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError, AttributeError):
+        return False
+
+
+def _check_deletable(out: Path) -> None:
+    """Raise RunFolderError unless `force` may delete `out`: an mjregen run folder that is
+    not the working directory, the home folder or one of their parents."""
+    resolved = out.resolve()
+    protected = {Path.cwd().resolve(), Path.home().resolve()}
+    if any(resolved == p or resolved in p.parents for p in protected):
+        raise RunFolderError(f"force never deletes {out} (the working directory, the home "
+                             "folder or a parent of one): choose another --out")
+    if not _is_run_folder(out):
+        raise RunFolderError(f"{out} is not empty and does not hold an mjregen run (no "
+                             f"config.json of format {RUN_FORMAT}): force only replaces run "
+                             "folders; choose another --out")
+
+
+def prepare_folder(out: Path, config: dict, *, resume: bool, force: bool,
+                   checkpoint: str = "checkpoint.npz") -> bool:
+    """Create or check the run folder; returns True when an earlier run is resumed (its
+    `checkpoint` file exists).
+
+    Raises:
+      RunFolderError: both `resume` and `force`; nothing to resume; the folder holds a run
+        with other settings; or it is not empty and `force` may not delete it.
+    """
+    config_path = out / "config.json"
+    if resume and force:
+        raise RunFolderError("choose either resume or force, not both")
+    if resume:
+        if not config_path.is_file():
+            raise RunFolderError(f"nothing to resume: {config_path} does not exist")
+        stored = read_config(config_path)
+        differences = sorted(k for k in set(stored) | set(config)
+                             if k not in ("created", "mjregen_version") and stored.get(k) != config.get(k))
+        if differences:
+            raise RunFolderError(
+                f"{out} holds a run with different settings ({', '.join(differences)}); "
+                "resume it with its own settings or use another folder")
+        return (out / checkpoint).is_file()
+    if out.exists() and any(out.iterdir()):
+        if not force:
+            raise RunFolderError(f"{out} is not empty; pass resume to continue the run in it "
+                                 "or force to delete it and start again")
+        _check_deletable(out)
+        shutil.rmtree(out)
+    out.mkdir(parents=True, exist_ok=True)
+    with atomic_open(config_path, "w") as handle:
+        json.dump(config, handle, indent=2)
+    return False
+
+
+def log_failures(path: Path, step: int, result: PopulationEvaluation, *, progress: bool,
+                 label: str = "generation") -> None:
+    """Append the failed evaluations of `label` `step` (one line each, the first traceback)
+    to `path`, and say so on screen."""
+    with path.open("a") as handle:
+        handle.write(f"{label} {step}: {len(result.errors)} failed\n")
+        handle.writelines(f"  {line}\n" for line in result.errors)
+        if result.tracebacks and result.tracebacks[0]:
+            handle.write(result.tracebacks[0] + "\n")
+    message = (f"{label} {step}: {len(result.errors)} evaluation(s) failed, e.g. "
+               f"{result.errors[0]} (see {path})")
+    if progress:
+        tqdm.write(message)
+    else:
+        print(message, file=sys.stderr)
+
+
+def read_metrics(path: Path, counter: str, done: int) -> list[dict]:
+    """metrics.csv rows whose `counter` column (e.g. "generation") is below `done` (a
+    killed run may have written one more)."""
+    if not path.is_file():
+        return []
+    with path.open() as handle:
+        return [row for row in csv.DictReader(handle) if int(row[counter]) < done]
+
+
+def write_metrics(path: Path, columns: tuple[str, ...], rows: list[dict]) -> None:
+    """metrics.csv with `columns`, written atomically."""
+    with atomic_open(path, "w") as handle:
+        writer = csv.DictWriter(handle, fieldnames=columns)
+        writer.writeheader()
+        writer.writerows(rows)
