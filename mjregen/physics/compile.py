@@ -31,6 +31,8 @@ from mjregen.physics.pipelines import VoxelPipeline
 from mjregen.physics.rounding import round_like_mjcf
 from mjregen.physics.tendons import BondTable, MuscleTendons
 
+BLOCK_STEP_FLOOR = 0.5  # a network step below this × its stiffest bond block's is a failure
+
 
 @dataclass(frozen=True)
 class CompiledRobot:
@@ -131,13 +133,21 @@ def compile_robot(
         mjcf.add_voxel_plugin(spec, layout, physics, table, beams, drive)
     else:
         mjcf.add_mujoco_bonds(spec, bodies, layout, physics, table)
-    spec.option.timestep = round_like_mjcf(timestep.stiffest_bond_step(physics, max_k_per_m))
+    block_step = timestep.stiffest_bond_step(physics, max_k_per_m)
+    spec.option.timestep = round_like_mjcf(block_step)
     model = spec.compile()
     rates = None
     if physics.pipeline.timestep_rule == "network" and layout.bonds:
         rates = _network_rates(model, layout, physics, table, beams)
-        spec.option.timestep = round_like_mjcf(
-            physics.scene.timestep_safety * timestep.stable_step(*rates))
+        step = physics.scene.timestep_safety * timestep.stable_step(*rates)
+        # a network is never stiffer than a block of its stiffest bond (measured: its step
+        # is 1.46-3.7 times the block's); far below that, the estimate itself failed
+        if not (math.isfinite(step) and step >= BLOCK_STEP_FLOOR * block_step):
+            raise CompileError(
+                f"the time step estimate of this robot failed: its bond network gave {step:.3g} "
+                f"s (rates {rates[0]:.3g} s^-2, {rates[1]:.3g} s^-1), a block of its stiffest "
+                f"bond {block_step:.3g} s; simulate it with timestep_rule='stiffest_bond'")
+        spec.option.timestep = round_like_mjcf(step)
         model.opt.timestep = spec.option.timestep
     body_ids = np.array([model.body(body.name).id for body in bodies])
     return CompiledRobot(

@@ -35,6 +35,7 @@ from mjregen.physics.params import Physics
 LANCZOS_STEPS = 40
 MODE_RATIO = 2.7  # fastest bond-network mode / a Timoshenko bond's sqrt(k/m)
 RELATIVE_PROBE = 1e-7  # largest probe displacement, in voxel lengths (or radians)
+BREAKDOWN = 1e-7  # Lanczos stops at a residual this small relative to the operator
 
 
 def rotational_dofs(model: mujoco.MjModel) -> np.ndarray:
@@ -101,13 +102,20 @@ class _NetworkForces:
 
 def largest_eigenvalue(apply, n: int, steps: int = LANCZOS_STEPS, seed: int = 0) -> float:
     """Largest eigenvalue of a symmetric operator `apply` on R^n (Lanczos with full
-    reorthogonalisation, `steps` iterations, random start from `seed`)."""
+    reorthogonalisation, `steps` iterations, random start from `seed`).
+
+    The iteration stops when the Krylov space is exhausted: the residual is below
+    BREAKDOWN × the largest coefficient so far (the finite-difference operators are exact
+    to about 1e-9 of it, so a smaller residual is their noise; continuing would build
+    basis vectors from noise, whose coefficients grow without bound: small robots with
+    several separate pieces exhaust their space in fewer than `steps` iterations)."""
     if n == 0:
         return 0.0
     rng = np.random.default_rng(seed)
     q = rng.standard_normal(n)
     basis = [q / np.linalg.norm(q)]
     alphas, betas = [], []
+    scale = 0.0  # the largest |coefficient| so far: the operator's size
     for k in range(min(steps, n)):
         w = apply(basis[k])
         alpha = float(basis[k] @ w)
@@ -117,7 +125,8 @@ def largest_eigenvalue(apply, n: int, steps: int = LANCZOS_STEPS, seed: int = 0)
         # full reorthogonalisation (einsum, not BLAS: OpenBLAS's threads would spin on)
         w -= np.einsum("kn,k->n", stack, np.einsum("kn,n->k", stack, w))
         beta = float(np.linalg.norm(w))
-        if beta < 1e-12 * max(abs(alpha), 1e-300):
+        scale = max(scale, abs(alpha), betas[-1] if betas else 0.0)
+        if beta <= BREAKDOWN * scale or beta == 0.0:
             break
         betas.append(beta)
         basis.append(w / beta)

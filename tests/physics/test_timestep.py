@@ -73,6 +73,32 @@ def test_lanczos_finds_the_largest_eigenvalue():
     assert largest_eigenvalue(lambda y: matrix @ y, 300) == pytest.approx(1.3, rel=1e-6)
 
 
+def test_a_robot_of_separate_pieces_steps_like_its_fastest_piece():
+    # three two-voxel pieces apart: no bond joins them, so the fastest mode of the robot is
+    # its fastest piece's (a small robot of several pieces once got a 1e-11 s step)
+    pieces = [{(1, 1, 3): Material.MUSCLE_MINUS, (1, 1, 4): Material.HARD},
+              {(6, 1, 5): Material.MUSCLE_MINUS, (6, 1, 6): Material.MUSCLE_MINUS},
+              {(6, 2, 4): Material.MUSCLE_MINUS, (7, 2, 4): Material.HARD}]
+    whole = np.zeros((9, 9, 9), dtype=np.int8)
+    steps = []
+    for piece in pieces:
+        alone = np.zeros((9, 9, 9), dtype=np.int8)
+        for cell, material in piece.items():
+            whole[cell] = alone[cell] = material
+        steps.append(compile_robot(Robot(alone), physics=NETWORK).timestep)
+    assert compile_robot(Robot(whole), physics=NETWORK).timestep == pytest.approx(min(steps),
+                                                                                 rel=0.02)
+
+
+def test_a_failed_step_estimate_is_an_error_not_a_hang(monkeypatch):
+    from mjregen.errors import CompileError
+    from mjregen.physics import compile as compile_module
+
+    monkeypatch.setattr(compile_module, "_network_rates", lambda *a: (1e20, 1e12))
+    with pytest.raises(CompileError, match="time step estimate of this robot failed"):
+        compile_robot(Robot.box((2, 1, 1)), physics=NETWORK)
+
+
 def test_stable_step_is_semi_implicit_eulers_limit():
     # undamped: h ω = 2; damped: h²λ + 2hμ = 4
     assert stable_step(4.0, 0.0) == pytest.approx(1.0)
