@@ -1,4 +1,5 @@
-"""Figures of robot grids: the paper's material colours and growth sequences as PNG."""
+"""Figures of robot grids: the paper's material colours, growth sequences and galleries of a
+MAP-Elites archive's elites, as PNG."""
 
 from __future__ import annotations
 
@@ -10,7 +11,9 @@ import numpy as np
 
 from mjregen.fileio import atomic_open
 from mjregen.grid import Material, Robot
+from mjregen.physics import Physics
 from mjregen.physics.mjcf import MATERIAL_RGBA
+from mjregen.search.qd_runs import StoredArchive
 
 
 def growth_figure(states: np.ndarray, path: str | os.PathLike, *, overwrite: bool = False,
@@ -91,3 +94,68 @@ def regrowth_figures(robots: dict[str, Robot], regrowth_states: np.ndarray,
                          titles=[f"{role}: {robot.n_voxels} voxels"
                                  for role, robot in robots.items()])
     return [trio, steps]
+
+
+def pick_elites(archive: StoredArchive, count: int) -> list[int]:
+    """Rows of up to `count` elites (robots with voxels) spread across the map: the map's
+    first two descriptor axes cut into about `count` tiles, the fittest elite of each tile
+    (the fittest tiles' when more are filled), ordered by the first descriptor."""
+    snapshot = archive.snapshot
+    if len(snapshot.index) == 0 or count < 1:
+        return []
+    coords = np.stack(np.unravel_index(snapshot.index, snapshot.cells), axis=1)[:, :2]
+    shape = snapshot.cells[:2]
+    per_axis = max(1, int(np.ceil(count ** (1.0 / len(shape)))))
+    tiles = [tuple(c * per_axis // n for c, n in zip(row, shape)) for row in coords]
+    robots = snapshot.extra["grid"].reshape(len(coords), -1)
+    best: dict[tuple, int] = {}
+    for row, tile in enumerate(tiles):
+        if not robots[row].any():  # an empty robot is no morphology
+            continue
+        if tile not in best or snapshot.fitness[row] > snapshot.fitness[best[tile]]:
+            best[tile] = row
+    rows = sorted(best.values(), key=lambda r: -snapshot.fitness[r])[:count]
+    return sorted(rows, key=lambda r: (snapshot.descriptors[r, 0], -snapshot.fitness[r]))
+
+
+def elite_gallery(archive: StoredArchive, path: str | os.PathLike, *, count: int = 12,
+                  physics: Physics | None = None, overwrite: bool = False) -> Path:
+    """PNG of up to `count` elites from across a MAP-Elites archive (`pick_elites`), each
+    rendered in its initial pose and titled with its fitness and descriptors.
+
+    Raises:
+      ValueError: the archive is empty or `path` is not ``.png``.
+      OutputExistsError: `path` exists and not `overwrite`.
+      mjregen.render.GLBackendError: no OpenGL backend can render.
+    """
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    from mjregen.physics.compile import compile_robot
+    from mjregen.render import RobotRenderer, View
+
+    path = Path(path)
+    if path.suffix != ".png":
+        raise ValueError(f"a gallery is a .png file; got {str(path)!r}")
+    rows = pick_elites(archive, count)
+    if not rows:
+        raise ValueError("the archive holds no robot with voxels to draw")
+    columns = min(4, len(rows))
+    lines = -(-len(rows) // columns)
+    figure = Figure(figsize=(3.2 * columns, 2.9 * lines))
+    FigureCanvasAgg(figure)
+    snapshot = archive.snapshot
+    for k, row in enumerate(rows):
+        robot = Robot(snapshot.extra["grid"][row])
+        ax = figure.add_subplot(lines, columns, k + 1)
+        ax.set(xticks=[], yticks=[])
+        described = ", ".join(f"{name} {value:.3g}" for name, value
+                              in zip(archive.descriptors, snapshot.descriptors[row]))
+        ax.set_title(f"fitness {snapshot.fitness[row]:.2f}\n{described}", fontsize=8)
+        with RobotRenderer(compile_robot(robot, physics=physics),
+                           view=View(width=320, height=240)) as renderer:
+            ax.imshow(renderer.render())
+    figure.tight_layout()
+    with atomic_open(path, overwrite=overwrite) as handle:
+        figure.savefig(handle, format="png", dpi=100)
+    return path

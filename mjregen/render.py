@@ -37,9 +37,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from mjregen.errors import MjregenError
-from mjregen.figures import MATERIAL_RGBA
 from mjregen.gl import BACKENDS, HEADLESS_BACKENDS, INSTALL_HINT, missing_library
 from mjregen.grid import Material
+from mjregen.physics.mjcf import MATERIAL_RGBA
 
 if TYPE_CHECKING:
     import mujoco

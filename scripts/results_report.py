@@ -10,7 +10,9 @@ Reads the evolution runs under --root (runs/results/<condition>/seed_<n>), the r
   growth_<asset>.png               growth sequence of every shipped NCA
   gallery_<asset>.png              one rendered frame of every shipped robot (headless)
   results.md                       settings vs the paper, curves, tables, the regrowth table
-                                   beside the paper's Table 1, measured facts for discussion
+                                   beside the paper's Table 1, the GA against MAP-Elites
+                                   (docs/quality_diversity.md, included), measured facts for
+                                   discussion
 
 It works on whatever exists: a condition without runs gets a "not run" line. The paper's
 Table 1 is parsed from the paper's LaTeX (--paper, default $MJREGEN_PAPER or ./paper; a
@@ -225,7 +227,7 @@ class Report:
                  "and elites keep the paper's share of the population (20 %; 2D: one elite).", "")
 
     def curves(self) -> None:
-        from mjregen.search.stats import bootstrap_curves, plot_groups
+        from mjregen.search.stats import bootstrap_curves, plot_panels
 
         self.add("## Fitness over generations", "",
                  "Mean over runs of each run's best fitness per generation, shaded: bootstrapped "
@@ -247,7 +249,7 @@ class Report:
                 self.add(f"- {dim}D: no runs, no plot.", "")
                 continue
             path = self.figures / f"fitness_{dim}d.png"
-            plot_groups(groups, path, ylabel=f"best fitness ({dim}D)")
+            plot_panels({f"best fitness ({dim}D)": groups}, path)
             self.add("", self.image(path, f"{dim}D fitness curves"), "",
                      "| condition | runs | generations | final mean best fitness [95 % CI] | best run: "
                      "fitness, distance (voxel lengths), seed, generation | unstable / failed evaluations |",
@@ -486,6 +488,17 @@ class Report:
                  "code saved it; \"alpha 1\": the grid alone, as only the tripod's and "
                  "multiped's grids were published). GA: population × generations run.", "")
 
+    def quality_diversity(self) -> None:
+        """docs/quality_diversity.md (`scripts/qd_comparison.py --report`), one level down."""
+        path = self.doc_dir / "quality_diversity.md"
+        if not path.is_file():
+            self.add("## Quality diversity: GA against MAP-Elites", "",
+                     "Not run (`python scripts/qd_comparison.py`, then `--report`).", "")
+            return
+        body = path.read_text().strip().splitlines()
+        self.add("## " + body[0].lstrip("# "), "", *("#" + line if line.startswith("#") else line
+                                                     for line in body[1:]), "")
+
     def discussion(self) -> None:
         self.add("## Discussion", "", "Measured facts (written by the script):", "")
         rows = getattr(self, "paper_rows", [])
@@ -571,6 +584,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         robots += report.walkers()
         report.gallery(robots)
         report.regeneration()
+        report.quality_diversity()
         report.discussion()
         path = report.write()
     except (MjregenError, OSError, ValueError) as error:

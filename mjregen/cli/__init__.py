@@ -79,7 +79,10 @@ def _prepare_gl(args: argparse.Namespace) -> None:
     """Before anything imports MuJoCo: a ``MUJOCO_GL`` whose library is missing is a
     one-line error for commands that render; the others load no OpenGL at all (neither
     a missing library nor the start-up time of one can then stop or slow them)."""
-    renders = getattr(args, "renders", False) and not getattr(args, "no_video", False)
+    renders = getattr(args, "renders", False)
+    if callable(renders):  # the command decides from its arguments
+        renders = renders(args)
+    renders = renders and not getattr(args, "no_video", False)
     problem = gl.missing_library(gl.requested_backend())
     if problem and renders:
         raise MjregenError(problem)

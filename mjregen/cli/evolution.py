@@ -1,4 +1,4 @@
-"""Commands of evolution runs: evolve, evolve-stats."""
+"""Commands of evolution runs: evolve (the GA or MAP-Elites), evolve-stats."""
 
 from __future__ import annotations
 
@@ -16,6 +16,12 @@ from mjregen.cli.common import (
     seed,
     workers,
 )
+from mjregen.cli.quality_diversity import (
+    add_map_elites_arguments,
+    draws_gallery,
+    optimizer,
+    run_map_elites_command,
+)
 from mjregen.errors import MjregenError
 
 
@@ -24,12 +30,18 @@ def add_evolve(subparsers: argparse._SubParsersAction) -> None:
 
     parser = subparsers.add_parser(
         "evolve",
-        help="evolve NCAs for locomotion with the paper's genetic algorithm",
+        help="evolve NCAs for locomotion with the paper's genetic algorithm or MAP-Elites",
         description="Evolve NCAs whose grown robots walk far. Writes config.json, metrics.csv, "
         "each generation's best NCA and robot, fitness.png and a checkpoint into --out; "
         "--resume continues a killed run exactly. Settings default to the paper's preset for "
-        "--dim (2d or 3d); every number can be overridden.",
+        "--dim (2d or 3d); every number can be overridden. With --optimizer map-elites: an "
+        "archive of the fittest robot per cell of behaviour descriptors (--descriptors, "
+        "--cells), --pop genomes per iteration for --gens iterations, mutated with the "
+        "preset's sigma; the folder holds archive.npz, heatmap.png, qd.png, best.npz/.npy, "
+        "gallery.png and the checkpoint.",
     )
+    parser.add_argument("--optimizer", choices=("ga", "map-elites"),
+                        help="search: the paper's GA (the default) or MAP-Elites (ribs)")
     parser.add_argument("--task", choices=("locomotion",), default="locomotion",
                         help="what the robots are scored on (the only task: locomotion)")
     parser.add_argument("--dim", type=int, choices=(2, 3), help="2D or 3D robots (default 3)")
@@ -42,8 +54,9 @@ def add_evolve(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--workers", type=workers, help="parallel workers (default: all cores)")
     parser.add_argument("--address", help="Ray cluster address (with --backend ray)")
     add_run_folder_arguments(parser, resume_help="continue the run in --out with its stored settings")
+    add_map_elites_arguments(parser)
     parser.add_argument("--json", action="store_true", help="print a JSON summary at the end")
-    parser.set_defaults(handler=_evolve)
+    parser.set_defaults(handler=_evolve, renders=draws_gallery)
 
 
 def _evolve(args: argparse.Namespace) -> int:
@@ -51,6 +64,13 @@ def _evolve(args: argparse.Namespace) -> int:
     from mjregen.growth.nca import NCAConfig
     from mjregen.search.backends import make_backend
 
+    if optimizer(args) == "map-elites":
+        return run_map_elites_command(args)
+    given = [flag for flag, value in (("--descriptors", args.descriptors), ("--cells", args.cells),
+                                      ("--emitter", args.emitter), ("--emitters", args.emitters),
+                                      ("--line-sigma", args.line_sigma)) if value is not None]
+    if given:
+        raise MjregenError(f"{', '.join(given)} set MAP-Elites; add --optimizer map-elites")
     if args.resume:
         task, ga, seed = _stored_run(args)
         nca, physics, duration = task.nca, task.physics, task.duration
@@ -97,14 +117,18 @@ def _stored_run(args: argparse.Namespace) -> tuple:
 def add_evolve_stats(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
         "evolve-stats",
-        help="mean best fitness with bootstrapped 95%% CIs over several runs",
-        description="Plot the mean (over runs) of a metrics.csv column per generation, with a "
-        "bootstrapped 95% confidence band, one curve per group. Example: "
-        "mjregen evolve-stats --group ff runs/ff_* --group lstm runs/lstm_* --out curves.png",
+        help="mean best fitness (MAP-Elites: QD score and coverage) with bootstrapped 95%% "
+             "CIs over several runs",
+        description="Plot the mean (over runs) of metrics.csv columns per generation (MAP-Elites: "
+        "iteration), with bootstrapped 95% confidence bands, one curve per group. Default "
+        "columns: best for GA runs or mixed groups, qd_score and coverage when every run is a "
+        "MAP-Elites run. Example: mjregen evolve-stats --group ff runs/ff_* --group lstm "
+        "runs/lstm_* --out curves.png",
     )
     parser.add_argument("--group", nargs="+", action="append", required=True,
                         metavar=("LABEL", "RUN"), help="a label and its run folders")
-    parser.add_argument("--column", default="best", help="metrics.csv column (default best)")
+    parser.add_argument("--column", action="append",
+                        help="metrics.csv column (repeatable; default: see above)")
     parser.add_argument("--out", type=Path, required=True, help="PNG to write")
     parser.add_argument("--force", action="store_true", help="overwrite --out if it exists")
     parser.add_argument("--json", action="store_true", help="print the curves as JSON")
@@ -113,31 +137,37 @@ def add_evolve_stats(subparsers: argparse._SubParsersAction) -> None:
 
 def _evolve_stats(args: argparse.Namespace) -> int:
     from mjregen.errors import OutputExistsError
-    from mjregen.search.stats import group_stats, plot_groups, run_kind
+    from mjregen.search.stats import group_stats, is_map_elites_run, plot_panels, run_kind
 
     if args.out.exists() and not args.force:
         raise OutputExistsError(args.out)
-    groups = {}
     for label, *runs in args.group:
         if not runs:
             raise MjregenError(f"group {label!r} names no run folders")
-        groups[label] = group_stats(runs, args.column)
     kinds = {label: run_kind(runs[0]) for label, *runs in args.group}
     if len(set(kinds.values())) > 1:
         raise MjregenError("the groups evolved for different tasks, whose fitnesses do not "
                            f"compare: {', '.join(f'{g} ({k})' for g, k in kinds.items())}")
-    for label, stats in groups.items():
+    every_run = [run for _, *runs in args.group for run in runs]
+    quality_diversity = all(is_map_elites_run(run) for run in every_run)
+    columns = args.column or (["qd_score", "coverage"] if quality_diversity else ["best"])
+    panels = {column: {label: group_stats(runs, column) for label, *runs in args.group}
+              for column in columns}
+    for label, stats in panels[columns[0]].items():
         if stats.truncated:
             print(f"note: group {label!r} cut to its shortest run, {len(stats.generations)} "
                   f"generations (runs have {', '.join(map(str, stats.run_lengths))})",
                   file=sys.stderr)
-    plot_groups(groups, args.out, ylabel=args.column)
+    plot_panels(panels, args.out, xlabel="iteration" if quality_diversity else "generation")
     if args.json:
-        print(json.dumps({label: {"runs": s.n_runs, "mean": s.mean.tolist(), "low": s.low.tolist(),
-                                  "high": s.high.tolist()} for label, s in groups.items()}))
+        curves = {column: {label: {"runs": s.n_runs, "mean": s.mean.tolist(),
+                                   "low": s.low.tolist(), "high": s.high.tolist()}
+                           for label, s in groups.items()} for column, groups in panels.items()}
+        print(json.dumps(curves[columns[0]] if len(columns) == 1 else curves))
     else:
-        for label, s in groups.items():
-            print(f"{label}: {s.n_runs} runs, final mean {s.mean[-1]:.4f} "
-                  f"[{s.low[-1]:.4f}, {s.high[-1]:.4f}]")
+        for column, groups in panels.items():
+            for label, s in groups.items():
+                print(f"{label}: {s.n_runs} runs, final mean {column} {s.mean[-1]:.4f} "
+                      f"[{s.low[-1]:.4f}, {s.high[-1]:.4f}]")
         print(f"wrote {args.out}")
     return 0

@@ -1,6 +1,7 @@
-"""Locomotion evolutions as one library call: `evolve_locomotion` writes a run folder (the
-one `mjregen evolve` writes), `stored_locomotion_run` reads back what a folder was started
-with."""
+"""Locomotion searches as one library call: `evolve_locomotion` (the GA) and
+`map_elites_locomotion` (MAP-Elites) write the run folder `mjregen evolve` writes;
+`stored_optimizer`, `stored_locomotion_run` and `stored_map_elites_run` read back what a
+folder was started with."""
 
 from __future__ import annotations
 
@@ -12,6 +13,8 @@ from mjregen.growth.nca import NCAConfig
 from mjregen.physics import Physics
 from mjregen.search.backends import Backend
 from mjregen.search.ga import GAConfig
+from mjregen.search.map_elites import MapElitesConfig
+from mjregen.search.qd_runs import QDRunSummary, run_map_elites
 from mjregen.search.runs import RunSummary, run_evolution
 from mjregen.tasks.locomotion import LocomotionTask
 
@@ -42,19 +45,66 @@ def evolve_locomotion(*, out: str | Path, nca: NCAConfig, ga: GAConfig, seed: in
                          progress=progress)
 
 
-def stored_locomotion_run(out: str | Path) -> tuple[LocomotionTask, GAConfig, int]:
-    """(task, GA settings, seed) a locomotion run folder was started with.
+def map_elites_locomotion(*, out: str | Path, nca: NCAConfig, config: MapElitesConfig,
+                          seed: int, backend: Backend, physics: Physics | None = None,
+                          duration: float | None = None, resume: bool = False,
+                          force: bool = False, progress: bool = True) -> QDRunSummary:
+    """Search NCAs whose robots walk far across behaviour descriptors with MAP-Elites, into
+    the run folder `out` (`mjregen.search.qd_runs`). Arguments as for `evolve_locomotion`,
+    with `config` the MAP-Elites settings."""
+    task = LocomotionTask(nca=nca, physics=physics or Physics(), duration=duration)
+    return run_map_elites(task, config, seed=seed, out=out, backend=backend,
+                          task_config=task.to_config(), resume=resume, force=force,
+                          progress=progress)
 
-    Raises:
-      MjregenError: no config.json in `out`, or one that is not a locomotion run's.
-    """
+
+def _stored_config(out: str | Path) -> tuple[Path, dict]:
     path = Path(out) / "config.json"
     if not path.is_file():
         raise MjregenError(f"nothing to resume: {path} does not exist")
     try:
         stored = json.loads(path.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as error:
+        raise MjregenError(f"{path} is not a readable run configuration: {error}") from None
+    if not isinstance(stored, dict):
+        raise MjregenError(f"{path} is not a run configuration (not a JSON object)")
+    return path, stored
+
+
+def stored_optimizer(out: str | Path) -> str:
+    """"ga" or "map-elites": the search a run folder holds.
+
+    Raises:
+      MjregenError: no readable config.json in `out`.
+    """
+    return "map-elites" if "map_elites" in _stored_config(out)[1] else "ga"
+
+
+def stored_locomotion_run(out: str | Path) -> tuple[LocomotionTask, GAConfig, int]:
+    """(task, GA settings, seed) a locomotion GA run folder was started with.
+
+    Raises:
+      MjregenError: no config.json in `out`, or one that is not a locomotion GA run's.
+    """
+    path, stored = _stored_config(out)
+    try:
         return (LocomotionTask.from_config(stored["task"]), GAConfig(**stored["ga"]),
                 int(stored["seed"]))
-    except (json.JSONDecodeError, UnicodeDecodeError, KeyError, TypeError, ValueError) as error:
+    except (KeyError, TypeError, ValueError) as error:
         raise MjregenError(f"{path} is not a readable run configuration of a locomotion run: "
                            f"{type(error).__name__}: {error}") from None
+
+
+def stored_map_elites_run(out: str | Path) -> tuple[LocomotionTask, MapElitesConfig, int]:
+    """(task, MAP-Elites settings, seed) a locomotion MAP-Elites run folder was started with.
+
+    Raises:
+      MjregenError: no config.json in `out`, or one that is not a locomotion MAP-Elites run's.
+    """
+    path, stored = _stored_config(out)
+    try:
+        return (LocomotionTask.from_config(stored["task"]),
+                MapElitesConfig.from_dict(stored["map_elites"]), int(stored["seed"]))
+    except (KeyError, TypeError, ValueError) as error:
+        raise MjregenError(f"{path} is not a readable configuration of a locomotion MAP-Elites "
+                           f"run: {type(error).__name__}: {error}") from None

@@ -1,5 +1,6 @@
-"""Statistics over several evolution runs: mean best fitness with bootstrapped 95 % CIs
-(the paper's Fig. 3b/4b style), read from the runs' metrics.csv files."""
+"""Statistics over several evolution runs: mean best fitness (MAP-Elites runs: also QD
+score and coverage) with bootstrapped 95 % CIs (the paper's Fig. 3b/4b style), read from
+the runs' metrics.csv files."""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from mjregen.errors import MjregenError
-from mjregen.plotting import line_axes, save_png
+from mjregen.plotting import save_png
 
 
 @dataclass(frozen=True)
@@ -39,6 +40,15 @@ def run_kind(run: str | Path) -> str:
         return str(json.loads(path.read_text())["task"]["task"])
     except (OSError, ValueError, KeyError, TypeError) as error:
         raise MjregenError(f"{path}: cannot tell what the run evolved for ({error})") from None
+
+
+def is_map_elites_run(run: str | Path) -> bool:
+    """The run folder holds a MAP-Elites run (its config.json has "map_elites" settings)."""
+    path = Path(run) / "config.json"
+    try:
+        return "map_elites" in json.loads(path.read_text())
+    except (OSError, ValueError, TypeError) as error:
+        raise MjregenError(f"{path}: cannot read the run's configuration ({error})") from None
 
 
 def read_curve(run: str | Path, column: str = "best") -> np.ndarray:
@@ -88,10 +98,21 @@ def group_stats(runs: list[str | Path], column: str = "best", **kwargs: object) 
     return replace(stats, run_lengths=tuple(len(c) for c in curves))
 
 
-def plot_groups(groups: dict[str, CurveStats], path: str | Path, *, ylabel: str = "best fitness") -> None:
-    """Mean curves with shaded CIs, one per group, as a PNG."""
-    figure, ax = line_axes(xlabel="generation", ylabel=ylabel)
-    for label, stats in groups.items():
-        line, = ax.plot(stats.generations, stats.mean, label=f"{label} (n={stats.n_runs})")
-        ax.fill_between(stats.generations, stats.low, stats.high, color=line.get_color(), alpha=0.25)
+def plot_panels(panels: dict[str, dict[str, CurveStats]], path: str | Path, *,
+                xlabel: str = "generation") -> None:
+    """One panel per metrics column ({column: {group label: stats}}), each with the groups'
+    mean curves and shaded CIs, side by side in one PNG."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    figure = Figure(figsize=(6 * len(panels), 4), dpi=100)
+    FigureCanvasAgg(figure)
+    for k, (column, groups) in enumerate(panels.items()):
+        ax = figure.add_subplot(1, len(panels), k + 1)
+        ax.set(xlabel=xlabel, ylabel=column)
+        ax.grid(alpha=0.3)
+        for label, stats in groups.items():
+            line, = ax.plot(stats.generations, stats.mean, label=f"{label} (n={stats.n_runs})")
+            ax.fill_between(stats.generations, stats.low, stats.high, color=line.get_color(),
+                            alpha=0.25)
     save_png(figure, path)

@@ -67,6 +67,11 @@ class LocomotionTask:
     def genome_size(self) -> int:
         return self.nca.genome_size
 
+    @property
+    def lowest_fitness(self) -> float:
+        """Below every fitness this task gives: the unstable penalty."""
+        return UNSTABLE_FITNESS[self.nca.dim]
+
     def evaluate(self, genomes: np.ndarray, backend: Backend) -> PopulationEvaluation:
         """Score a population of genomes ``(P, G)``."""
         grids = grow(self.nca, genomes).grids

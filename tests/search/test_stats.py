@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from mjregen.search.stats import bootstrap_curves, group_stats, plot_groups
+from mjregen.search.stats import bootstrap_curves, group_stats, plot_panels
 
 
 def test_bootstrap_ci_covers_the_mean_and_shrinks_with_more_runs():
@@ -31,7 +31,7 @@ def test_group_stats_reads_metrics_and_plots(tmp_path):
     stats = group_stats([tmp_path / "run0", tmp_path / "run1"])
     assert stats.n_runs == 2 and np.allclose(stats.mean, [1.5, 2.5, 3.5])
     assert stats.truncated and stats.run_lengths == (4, 3)
-    plot_groups({"a": stats}, tmp_path / "curves.png")
+    plot_panels({"best": {"a": stats}}, tmp_path / "curves.png")
     assert (tmp_path / "curves.png").read_bytes()[:4] == b"\x89PNG"
     (tmp_path / "missing").mkdir()
     (tmp_path / "missing" / "config.json").write_text('{"task": {"task": "locomotion"}}')

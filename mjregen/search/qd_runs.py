@@ -1,0 +1,286 @@
+"""MAP-Elites runs on disk: one output folder per run, resumable after a kill, like the GA's
+(`mjregen.search.runs`; shared rules in `mjregen.search.run_folder`).
+
+The folder holds
+  config.json     everything that determines the run (task, "map_elites" settings, seed)
+  metrics.csv     one row per iteration (see `QD_METRICS`)
+  archive.npz     the archive after the last finished iteration (`read_archive`): each
+                  elite's genome, fitness, descriptors, cell and robot grid, with the
+                  descriptors' names, ranges and cells and the NCA's configuration
+  best.npz, best.npy   the best elite so far as an NCA checkpoint, and its robot
+  heatmap.png     fitness of each cell's elite; qd.png: QD score and coverage per iteration
+                  (both redrawn every PLOT_EVERY s and after the last iteration)
+  checkpoint.npz  the search after the last finished iteration (its ribs scheduler, pickled),
+                  written atomically, with the hash of config.json
+  errors.log      the evaluations that failed (only when some failed)
+A killed run continues from `checkpoint.npz` with ``resume=True`` and produces exactly the
+results of an uninterrupted run. Unstable and failed robots enter the archive with their
+penalty fitness (any working robot of their cell replaces them).
+"""
+
+from __future__ import annotations
+
+import json
+import time
+import zipfile
+from dataclasses import dataclass
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Callable, Protocol
+
+import numpy as np
+from tqdm import tqdm
+
+from mjregen import __version__, interrupt
+from mjregen.errors import CheckpointError
+from mjregen.fileio import atomic_open
+from mjregen.grid import Robot
+from mjregen.growth.checkpoint import save_nca
+from mjregen.growth.nca import NCA, NCAConfig
+from mjregen.search.archive_plots import archive_heatmap, qd_curves
+from mjregen.search.backends import Backend
+from mjregen.search.map_elites import ArchiveSnapshot, MapElites, MapElitesConfig, import_ribs
+from mjregen.search.run_folder import (
+    RUN_FORMAT,
+    RunFailedError,
+    RunFolderError,
+    config_hash,
+    log_failures,
+    prepare_folder,
+    read_metrics,
+    write_metrics,
+)
+from mjregen.tasks.descriptors import describe, descriptor_ranges
+from mjregen.tasks.evaluation import PopulationEvaluation
+
+PLOT_EVERY = 10.0  # s of wall time between redraws of the pictures (and after the last)
+QD_METRICS = ("iteration", "qd_score", "coverage", "elites", "best", "batch_best",
+              "batch_mean", "unstable", "failed", "distinct", "evaluations", "evals_per_s",
+              "wall_time", "elapsed")
+ARCHIVE_FORMAT = "mjregen-archive-1"
+
+
+class QDTask(Protocol):
+    """What a MAP-Elites run evaluates: genomes of an NCA -> fitness and grown robots."""
+
+    nca: NCAConfig
+    lowest_fitness: float  # below every fitness the task gives (the QD score's offset)
+
+    def evaluate(self, genomes: np.ndarray, backend: Backend) -> PopulationEvaluation: ...
+
+
+@dataclass(frozen=True)
+class QDRunSummary:
+    """Outcome of `run_map_elites`: the archive's size and best."""
+
+    out: Path
+    iterations: int
+    best_fitness: float
+    qd_score: float
+    coverage: float
+    elites: int
+
+
+def run_map_elites(task: QDTask, config: MapElitesConfig, *, seed: int, out: str | Path,
+                   backend: Backend, task_config: dict, resume: bool = False,
+                   force: bool = False, progress: bool = True,
+                   on_iteration: Callable[[dict], None] | None = None) -> QDRunSummary:
+    """Search `task` with MAP-Elites, writing the run folder `out` (module docstring).
+
+    Args:
+      task: what to evaluate (e.g. `mjregen.tasks.locomotion.LocomotionTask`).
+      config: the search's settings, descriptors and cells included.
+      seed: seeds every random generator of the search.
+      out: the run folder.
+      backend: where simulations run; results do not depend on it.
+      task_config: JSON description of `task`, stored in config.json and compared on resume.
+      resume, force: as for `mjregen.search.runs.run_evolution`.
+      progress: a tqdm bar with the QD score and the best fitness.
+      on_iteration: called with each iteration's metrics row.
+    Raises:
+      RunFolderError: `out` holds another run, there is nothing to resume, its config was
+        edited, or `force` is asked to delete a folder that is not a run folder.
+      RunFailedError: every evaluation of an iteration failed.
+      CheckpointError: the checkpoint cannot be read.
+      mjregen.search.map_elites.MissingRibsError: ribs is not installed (nothing is written).
+      ValueError: `seed` is not a whole number >= 0 (nothing is written).
+    """
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ValueError(f"seed must be a whole number >= 0, got {seed!r}")
+    import_ribs()  # before anything is written
+    out = Path(out)
+    run_config = {
+        "format": RUN_FORMAT, "task": task_config, "map_elites": config.to_dict(),
+        "seed": int(seed), "mjregen_version": __version__,
+        "created": datetime.now(timezone.utc).isoformat(),
+    }
+    shape = (task.nca.grid_size,) * task.nca.dim
+    ranges = descriptor_ranges(config.descriptors, shape)
+    if prepare_folder(out, run_config, resume=resume, force=force):
+        search = _checkpoint_load(out / "checkpoint.npz")
+    else:
+        search = MapElites(config, task.nca.genome_size, ranges=ranges, seed=int(seed),
+                           qd_score_offset=task.lowest_fitness,
+                           extra_fields={"grid": (shape, np.int8)})
+    rows = read_metrics(out / "metrics.csv", "iteration", search.iteration)
+    elapsed = float(rows[-1]["elapsed"]) if rows else 0.0
+    last_plot = -np.inf
+    bar = tqdm(total=config.iterations, initial=search.iteration, disable=not progress,
+               desc=f"MAP-Elites {out.name}", unit="it")
+    while search.iteration < config.iterations:
+        interrupt.check()
+        start = time.perf_counter()
+        iteration = search.iteration
+        genomes = search.ask()
+        result = task.evaluate(genomes, backend)
+        if result.errors:
+            log_failures(out / "errors.log", iteration, result, progress=progress,
+                         label="iteration")
+        if np.all(result.failed):
+            raise RunFailedError(
+                f"every evaluation of iteration {iteration} failed, e.g. {result.errors[0]} "
+                f"(tracebacks in {out / 'errors.log'}); the run stops, its checkpoint holds "
+                "the last good iteration")
+        best_before = search.stats()["best"]
+        search.tell(result.fitness, describe(result.grids, config.descriptors),
+                    grid=result.grids)
+        snapshot = search.snapshot()
+        save_archive(out / "archive.npz", snapshot, config, ranges, task.nca)
+        stats = search.stats()
+        if not stats["best"] <= best_before:  # improved (or the first iteration)
+            _save_best(out, task.nca, snapshot, seed=int(seed), iteration=iteration)
+        wall = time.perf_counter() - start
+        elapsed += wall
+        rows.append(_metrics_row(stats, result, iteration=iteration, wall=wall,
+                                 elapsed=elapsed))
+        write_metrics(out / "metrics.csv", QD_METRICS, rows)
+        if time.perf_counter() - last_plot > PLOT_EVERY or search.iteration == config.iterations:
+            archive_heatmap(snapshot.fitness_grid(), config.descriptors, ranges,
+                            out / "heatmap.png", title=out.name)
+            qd_curves(rows, out / "qd.png", title=out.name)
+            last_plot = time.perf_counter()
+        _checkpoint_save(out / "checkpoint.npz", search)
+        bar.set_postfix(qd=f"{stats['qd_score']:.1f}", best=f"{stats['best']:.3f}")
+        bar.update(1)
+        if on_iteration is not None:
+            on_iteration(rows[-1])
+    bar.close()
+    stats = search.stats()
+    return QDRunSummary(out=out, iterations=search.iteration, best_fitness=stats["best"],
+                        qd_score=stats["qd_score"], coverage=stats["coverage"],
+                        elites=stats["elites"])
+
+
+def _metrics_row(stats: dict, result: PopulationEvaluation, *, iteration: int, wall: float,
+                 elapsed: float) -> dict:
+    """An iteration's metrics.csv row (`QD_METRICS`)."""
+    fitness = result.fitness
+    return {
+        "iteration": iteration, "qd_score": f"{stats['qd_score']:.8g}",
+        "coverage": f"{stats['coverage']:.6g}", "elites": stats["elites"],
+        "best": f"{stats['best']:.6g}", "batch_best": f"{fitness.max():.6g}",
+        "batch_mean": f"{fitness.mean():.6g}",
+        "unstable": int(np.count_nonzero(~result.stable & ~result.failed)),
+        "failed": int(np.count_nonzero(result.failed)), "distinct": result.n_distinct,
+        "evaluations": len(fitness), "evals_per_s": f"{len(fitness) / wall:.4g}",
+        "wall_time": f"{wall:.4g}", "elapsed": f"{elapsed:.6g}",
+    }
+
+
+def _save_best(out: Path, nca: NCAConfig, snapshot: ArchiveSnapshot, *, seed: int,
+               iteration: int) -> None:
+    """The archive's best elite as ``best.npz`` (NCA checkpoint) and ``best.npy`` (robot)."""
+    top = int(np.argmax(snapshot.fitness))
+    metadata = {"iteration": iteration, "fitness": float(snapshot.fitness[top]), "seed": seed,
+                "cell": int(snapshot.index[top]),
+                "descriptors": [float(v) for v in snapshot.descriptors[top]]}
+    save_nca(out / "best.npz", NCA(nca, snapshot.genomes[top]), metadata=metadata,
+             overwrite=True)
+    Robot(snapshot.extra["grid"][top]).save(out / "best.npy", overwrite=True)
+
+
+def save_archive(path: Path, snapshot: ArchiveSnapshot, config: MapElitesConfig,
+                 ranges: list[tuple[float, float]], nca: NCAConfig) -> None:
+    """Write the archive's elites to `path` atomically (read with `read_archive`)."""
+    meta = {"descriptors": list(config.descriptors), "cells": list(config.cells),
+            "ranges": [list(r) for r in ranges], "nca": nca.to_dict()}
+    with atomic_open(path) as handle:
+        np.savez(handle, format=np.array(ARCHIVE_FORMAT), meta=np.array(json.dumps(meta)),
+                 index=snapshot.index, genomes=snapshot.genomes, fitness=snapshot.fitness,
+                 descriptors=snapshot.descriptors,
+                 **{f"extra_{k}": v for k, v in snapshot.extra.items()})
+
+
+@dataclass(frozen=True)
+class StoredArchive:
+    """A run's archive.npz: its elites and what its cells mean."""
+
+    snapshot: ArchiveSnapshot
+    descriptors: tuple[str, ...]
+    ranges: tuple[tuple[float, float], ...]
+    nca: NCAConfig
+
+    def nca_of(self, elite: int) -> NCA:
+        """The NCA of elite row `elite`."""
+        return NCA(self.nca, self.snapshot.genomes[elite])
+
+
+def read_archive(path: str | Path) -> StoredArchive:
+    """A MAP-Elites run's archive.npz.
+
+    Raises:
+      CheckpointError: missing, corrupt, or not an archive file.
+    """
+    path = Path(path)
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            if str(data["format"]) != ARCHIVE_FORMAT:
+                raise CheckpointError(f"{path} is not a MAP-Elites archive")
+            meta = json.loads(str(data["meta"]))
+            snapshot = ArchiveSnapshot(
+                index=data["index"], genomes=data["genomes"], fitness=data["fitness"],
+                descriptors=data["descriptors"], cells=tuple(meta["cells"]),
+                extra={k[len("extra_"):]: data[k] for k in data.files if k.startswith("extra_")})
+            nca = NCAConfig.from_dict(meta["nca"])
+    except (KeyError, ValueError, TypeError, OSError, EOFError, zipfile.BadZipFile) as error:
+        raise CheckpointError(f"cannot read MAP-Elites archive {path}: {error}") from None
+    return StoredArchive(snapshot=snapshot, descriptors=tuple(meta["descriptors"]),
+                         ranges=tuple(tuple(r) for r in meta["ranges"]), nca=nca)
+
+
+def _checkpoint_save(path: Path, search: MapElites) -> None:
+    ribs = import_ribs()
+    state = {"iteration": search.iteration, "ribs_version": ribs.__version__,
+             "config_sha256": config_hash(path.with_name("config.json"))}
+    with atomic_open(path) as handle:
+        np.savez(handle, format=np.array(RUN_FORMAT), state=np.array(json.dumps(state)),
+                 search=np.frombuffer(search.state_bytes(), dtype=np.uint8))
+
+
+def _checkpoint_load(path: Path) -> MapElites:
+    ribs = import_ribs()
+    try:
+        with np.load(path, allow_pickle=False) as archive:
+            if str(archive["format"]) != RUN_FORMAT:
+                raise CheckpointError(f"{path} is not an mjregen run checkpoint")
+            state = json.loads(str(archive["state"]))
+            data = archive["search"].tobytes()
+    except (KeyError, ValueError, OSError, EOFError, zipfile.BadZipFile) as error:
+        raise CheckpointError(f"cannot read run checkpoint {path}: {error}") from None
+    config_path = path.with_name("config.json")
+    if state.get("config_sha256") != config_hash(config_path):
+        raise RunFolderError(f"{config_path} changed since the run wrote {path.name} (its hash "
+                             "differs): restore the file, or start a new run")
+    if state.get("ribs_version") != ribs.__version__:
+        raise CheckpointError(
+            f"{path} was written with ribs {state.get('ribs_version')}, this is ribs "
+            f"{ribs.__version__}: an exact resume needs the same version (pip install "
+            f"ribs=={state.get('ribs_version')})")
+    try:
+        search = MapElites.from_state_bytes(data)
+    except CheckpointError as error:
+        raise CheckpointError(f"cannot read run checkpoint {path}: {error}") from None
+    if search.iteration != state.get("iteration"):
+        raise CheckpointError(f"{path} is inconsistent: its search is at iteration "
+                              f"{search.iteration}, its record says {state.get('iteration')}")
+    return search

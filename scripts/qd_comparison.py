@@ -1,0 +1,262 @@
+#!/usr/bin/env python3
+"""GA against MAP-Elites at equal evaluations on 3D feed-forward NCAs: runs, then the report.
+
+Each method runs once per seed into <root>/<method>/seed_<n> (`mjregen evolve` run folders,
+resumable: run the same command again after a kill). Every evaluation of every run is also
+recorded (its robot, fitness and distance) in <run>/evaluations/NNNN.npz, so that the GA's
+robots can be placed in the same archive as MAP-Elites' (the same descriptors and cells).
+
+The report (``--report``) writes docs/quality_diversity.md and its figures into
+docs/quality_diversity/: per method over seeds, the best fitness, the QD score and coverage
+of all its evaluations placed in one archive, and the number of distinct walking
+morphologies (archive cells whose elite walks at least 25 % as far as the farthest robot
+of the whole comparison); curves of best fitness and QD score over evaluations (means and
+bootstrapped 95 % CIs); each method's archive heatmap and MAP-Elites' gallery (seed 0).
+
+Examples:
+  python scripts/qd_comparison.py --root runs/qd --seeds 0 1 2 --pop 50 --gens 40 --workers 2
+  python scripts/qd_comparison.py --root runs/qd --seeds 0 1 2 --pop 50 --gens 40 --report
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from mjregen.growth.nca import NCAConfig
+from mjregen.physics import Physics
+from mjregen.search.backends import make_backend
+from mjregen.search.ga import PRESETS
+from mjregen.search.map_elites import MapElites, MapElitesConfig
+from mjregen.search.qd_runs import run_map_elites
+from mjregen.search.runs import run_evolution
+from mjregen.search.stats import bootstrap_curves
+from mjregen.tasks.descriptors import default_cells, describe, descriptor_ranges
+from mjregen.tasks.locomotion import LocomotionTask
+
+METHODS = ("ga", "map-elites")
+DESCRIPTORS = ("voxels", "muscle")
+WALKING = 0.25  # a morphology walks when it goes this fraction of the comparison's farthest
+ROOT_DOCS = Path(__file__).resolve().parent.parent / "docs"
+
+
+@dataclass
+class RecordingTask:
+    """A locomotion task that also writes each evaluated batch to <out>/evaluations."""
+
+    task: LocomotionTask
+    out: Path
+    counter: int
+
+    @property
+    def nca(self) -> NCAConfig:
+        return self.task.nca
+
+    @property
+    def lowest_fitness(self) -> float:
+        return self.task.lowest_fitness
+
+    def evaluate(self, genomes, backend):
+        result = self.task.evaluate(genomes, backend)
+        folder = self.out / "evaluations"
+        folder.mkdir(exist_ok=True)
+        np.savez_compressed(folder / f"{self.counter:04d}.npz", grids=result.grids,
+                            fitness=result.fitness, distance=result.details["distance"])
+        self.counter += 1
+        return result
+
+
+def finished_steps(out: Path) -> int:
+    """Generations (iterations) a run folder's checkpoint has finished; 0 without one."""
+    path = out / "checkpoint.npz"
+    if not path.is_file():
+        return 0
+    with np.load(path, allow_pickle=False) as archive:
+        state = json.loads(str(archive["state"]))
+    return int(state.get("generation", state.get("iteration", 0)))
+
+
+def run_all(args: argparse.Namespace) -> None:
+    nca = NCAConfig(dim=3, kind="ff")
+    ga = PRESETS["3d"].scaled(args.pop).with_overrides(generations=args.gens)
+    me = MapElitesConfig(iterations=args.gens, batch=args.pop, emitters=args.emitters,
+                         sigma=ga.sigma, descriptors=DESCRIPTORS,
+                         cells=default_cells(DESCRIPTORS, (nca.grid_size,) * 3))
+    with make_backend("process", workers=args.workers) as backend:
+        for seed in args.seeds:
+            for method in METHODS:
+                out = args.root / method / f"seed_{seed}"
+                task = LocomotionTask(nca=nca, physics=Physics())
+                resume = (out / "config.json").is_file()
+                recording = RecordingTask(task, out, finished_steps(out) if resume else 0)
+                start = time.perf_counter()
+                common = dict(seed=seed, out=out, backend=backend,
+                              task_config=task.to_config(), resume=resume,
+                              progress=not args.quiet)
+                if method == "ga":
+                    run_evolution(recording, ga, **common)
+                else:
+                    run_map_elites(recording, me, **common)
+                print(f"{method} seed {seed}: {time.perf_counter() - start:.0f} s", flush=True)
+
+
+def evaluations(run: Path) -> dict[str, np.ndarray]:
+    """Every evaluation of a run in order: grids, fitness, distance, batch (its index)."""
+    files = sorted((run / "evaluations").glob("*.npz"))
+    if not files:
+        raise SystemExit(f"{run} has no recorded evaluations: run the comparison first")
+    parts = {"grids": [], "fitness": [], "distance": [], "batch": []}
+    for k, path in enumerate(files):
+        with np.load(path) as data:
+            for key in ("grids", "fitness", "distance"):
+                parts[key].append(data[key])
+            parts["batch"].append(np.full(len(data["fitness"]), k))
+    return {key: np.concatenate(value) for key, value in parts.items()}
+
+
+def archive_of(found: dict[str, np.ndarray], upto: int | None = None) -> MapElites:
+    """All evaluations (of the first `upto` batches) placed in a fresh archive of the
+    comparison's descriptors and cells."""
+    keep = slice(None) if upto is None else found["batch"] < upto
+    grids, fitness = found["grids"][keep], found["fitness"][keep]
+    shape = grids.shape[1:]
+    config = MapElitesConfig(iterations=1, batch=1, emitters=1, descriptors=DESCRIPTORS,
+                             cells=default_cells(DESCRIPTORS, shape))
+    search = MapElites(config, 1, ranges=descriptor_ranges(DESCRIPTORS, shape), seed=0,
+                       qd_score_offset=-21.0, extra_fields={"distance": ((), np.float64)})
+    search.archive.add(np.zeros((len(fitness), 1), dtype=np.float32), fitness,
+                       describe(grids, DESCRIPTORS), distance=np.nan_to_num(found["distance"][keep]))
+    return search
+
+
+def report(args: argparse.Namespace) -> None:
+    from mjregen.figures import elite_gallery
+    from mjregen.plotting import save_png
+    from mjregen.search.archive_plots import archive_heatmap
+    from mjregen.search.qd_runs import read_archive
+
+    figures = ROOT_DOCS / "quality_diversity"
+    figures.mkdir(parents=True, exist_ok=True)
+    found = {(m, s): evaluations(args.root / m / f"seed_{s}") for m in METHODS for s in args.seeds}
+    farthest = max(float(np.nanmax(f["distance"])) for f in found.values())
+    rows, curves = {}, {m: {"best": [], "qd": []} for m in METHODS}
+    for (method, seed), data in found.items():
+        archive = archive_of(data)
+        elites = archive.archive.data()
+        stats = archive.stats()
+        walking = int(np.count_nonzero(elites["distance"] >= WALKING * farthest))
+        batches = int(data["batch"].max()) + 1
+        best = np.maximum.accumulate([data["fitness"][data["batch"] == b].max()
+                                      for b in range(batches)])
+        qd = [archive_of(data, upto=b + 1).stats()["qd_score"] for b in range(batches)]
+        curves[method]["best"].append(best)
+        curves[method]["qd"].append(qd)
+        rows[(method, seed)] = {"evaluations": len(data["fitness"]), "best": stats["best"],
+                                "qd_score": stats["qd_score"], "coverage": stats["coverage"],
+                                "walking": walking,
+                                "distance": float(np.nanmax(data["distance"]))}
+    per_batch = args.pop
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    figure = Figure(figsize=(11, 4), dpi=100)
+    FigureCanvasAgg(figure)
+    for k, (key, label) in enumerate((("best", "best fitness so far"),
+                                      ("qd", "QD score of all evaluations"))):
+        ax = figure.add_subplot(1, 2, k + 1)
+        for method in METHODS:
+            length = min(len(c) for c in curves[method][key])
+            stats = bootstrap_curves(np.stack([np.asarray(c[:length]) for c in curves[method][key]]))
+            x = (stats.generations + 1) * per_batch
+            line, = ax.plot(x, stats.mean, label=f"{method} (n={stats.n_runs})")
+            ax.fill_between(x, stats.low, stats.high, color=line.get_color(), alpha=0.25)
+        ax.set(xlabel="evaluations", ylabel=label)
+        ax.grid(alpha=0.3)
+    save_png(figure, figures / "curves.png")
+    seed0 = args.seeds[0]
+    for method in METHODS:
+        archive = archive_of(found[(method, seed0)])
+        shape = found[(method, seed0)]["grids"].shape[1:]
+        archive_heatmap(archive.snapshot().fitness_grid(), DESCRIPTORS,
+                        descriptor_ranges(DESCRIPTORS, shape), figures / f"heatmap_{method}.png",
+                        title=f"{method}, seed {seed0}: every evaluation placed")
+    elite_gallery(read_archive(args.root / "map-elites" / f"seed_{seed0}" / "archive.npz"),
+                  figures / "gallery_map_elites.png", overwrite=True)
+    write_markdown(args, rows, farthest)
+
+
+def write_markdown(args: argparse.Namespace, rows: dict, farthest: float) -> None:
+    config = json.loads((args.root / "map-elites" / f"seed_{args.seeds[0]}" / "config.json").read_text())
+    ga_config = json.loads((args.root / "ga" / f"seed_{args.seeds[0]}" / "config.json").read_text())
+    cpu_hours = 0.0
+    for method in METHODS:
+        for seed in args.seeds:
+            with open(args.root / method / f"seed_{seed}" / "metrics.csv") as handle:
+                cpu_hours += float(handle.read().strip().splitlines()[-1].split(",")[-1]) / 3600
+    lines = [
+        "# Quality diversity: the paper's GA against MAP-Elites", "",
+        f"Generated by `python scripts/qd_comparison.py --root {args.root} --seeds "
+        f"{' '.join(map(str, args.seeds))} --pop {args.pop} --gens {args.gens} --report` from "
+        "its run folders; regenerate instead of editing.", "",
+        f"Both search 3D feed-forward NCAs (the paper's locomotion task and default physics) "
+        f"with {args.pop} evaluations per generation (iteration) for {args.gens}: "
+        f"{args.pop * args.gens} evaluations per run, seeds {', '.join(map(str, args.seeds))}. "
+        f"GA: the paper's 3D settings scaled to the population ({ga_config['ga']['truncation']} "
+        f"parents, {ga_config['ga']['elites']} elites, σ {ga_config['ga']['sigma']}). "
+        f"MAP-Elites (ribs): {config['map_elites']['emitters']} Gaussian emitters, σ "
+        f"{config['map_elites']['sigma']}, descriptors voxels × muscle fraction in "
+        f"{config['map_elites']['cells'][0]} × {config['map_elites']['cells'][1]} cells. "
+        f"Every evaluation of either method is placed in one archive of those cells to compare "
+        f"QD score (sum of elites' fitness + 21) and coverage. A morphology walks when its "
+        f"cell's elite goes at least {WALKING:.0%} of the farthest robot of the comparison "
+        f"({farthest:.2f} voxel lengths). Wall time of all runs: {cpu_hours:.2f} h on 2 cores "
+        "(the runs' own clocks).", "",
+        "| method | seed | evaluations | best fitness | QD score | coverage | walking morphologies | farthest (voxel lengths) |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for (method, seed), r in sorted(rows.items()):
+        lines.append(f"| {method} | {seed} | {r['evaluations']} | {r['best']:.2f} | "
+                     f"{r['qd_score']:.0f} | {r['coverage']:.1%} | {r['walking']} | "
+                     f"{r['distance']:.2f} |")
+    for method in METHODS:
+        values = {k: np.array([rows[(method, s)][k] for s in args.seeds]) for k in
+                  ("best", "qd_score", "coverage", "walking")}
+        lines.append(f"| **{method} mean** | | | {values['best'].mean():.2f} | "
+                     f"{values['qd_score'].mean():.0f} | {values['coverage'].mean():.1%} | "
+                     f"{values['walking'].mean():.1f} | |")
+    lines += ["", "![best fitness and QD score over evaluations](quality_diversity/curves.png)", "",
+              "Every evaluation of seed 0 placed in the archive, GA and MAP-Elites:", "",
+              "![GA](quality_diversity/heatmap_ga.png) "
+              "![MAP-Elites](quality_diversity/heatmap_map-elites.png)", "",
+              "MAP-Elites' elites across the map (seed 0), in their initial pose:", "",
+              "![gallery](quality_diversity/gallery_map_elites.png)", ""]
+    (ROOT_DOCS / "quality_diversity.md").write_text("\n".join(lines))
+    print(f"wrote {ROOT_DOCS / 'quality_diversity.md'}")
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--root", type=Path, default=Path("runs") / "qd")
+    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
+    parser.add_argument("--pop", type=int, default=50, help="evaluations per generation")
+    parser.add_argument("--gens", type=int, default=40, help="generations (iterations)")
+    parser.add_argument("--emitters", type=int, default=5, help="MAP-Elites emitters")
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--report", action="store_true", help="write the report (no runs)")
+    parser.add_argument("--quiet", action="store_true")
+    args = parser.parse_args(argv)
+    if args.report:
+        report(args)
+    else:
+        run_all(args)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
