@@ -5,8 +5,8 @@ after the paper's cut, with their locomotion recovery.
 
 At ``--scale paper`` (the default) this is the paper's full protocol: 2D population 300 x
 500 generations x 10 runs, 3D 100 x 300 x 24, regrowth 1000 x 1000 with both networks
-(months of CPU on one machine; use --only and several machines, or Ray via `mjregen evolve
---backend ray`). ``--scale quick`` is the reduced scale of the shipped results (about 75 minutes
+(about 300 CPU-hours, a week on two cores; use --only and several machines, or Ray via
+`mjregen evolve --backend ray`). ``--scale quick`` is the reduced scale of the shipped results (about 75 minutes
 on two cores); ``--scale smoke`` takes seconds. --pop/--gens/--runs override the scale.
 
 Everything is resumable: run the same command again after a kill and every run continues

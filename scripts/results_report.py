@@ -159,7 +159,7 @@ class Report:
 
     def reproduce(self) -> None:
         self.add("## How to reproduce", "",
-                 "At the paper's scale (months of CPU; resumable, run it again after a kill):",
+                 "At the paper's scale (about 300 CPU-hours; resumable, run it again after a kill):",
                  "```bash",
                  "python scripts/paper_experiments.py --scale paper --workers $(nproc)",
                  "python scripts/ship_assets.py --best --walkers --overwrite --replace-default",

@@ -41,9 +41,10 @@ from mjregen.search.ga import PRESETS, GAConfig
 
 DEFAULT_ROOT = Path("runs") / "results"
 NETS = ("ff", "lstm")
-# Rough CPU-s per evaluation on the development machine (default physics): 2D robots ~1 s;
-# 3D robots 3-10 s, but random 3D NCAs often grow full 343-voxel blocks (~20 s).
-CPU_PER_EVALUATION = {2: 1.0, 3: 10.0}
+# Rough CPU-s per evaluation with the default physics, from real evolutions on two cores
+# (docs/performance.md): 3D 0.25-0.45 s (the paper's GA, population 50-100), 2D about a
+# third of that; for planning only.
+CPU_PER_EVALUATION = {2: 0.15, 3: 0.4}
 
 
 @dataclass(frozen=True)
