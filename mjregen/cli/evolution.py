@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from pathlib import Path
 
@@ -42,8 +43,17 @@ def add_evolve(subparsers: argparse._SubParsersAction) -> None:
     )
     parser.add_argument("--optimizer", choices=("ga", "map-elites"),
                         help="search: the paper's GA (the default) or MAP-Elites (ribs)")
-    parser.add_argument("--task", choices=("locomotion",), default="locomotion",
-                        help="what the robots are scored on (the only task: locomotion)")
+    parser.add_argument("--task", choices=("locomotion", "grow-regrow"),
+                        help="what the robots are scored on: how far they walk "
+                             "('locomotion', the default), or that and how well the same NCA "
+                             "regrows them after --cut ('grow-regrow': fitness = locomotion "
+                             "fitness - --cell-cost x wrongly regrown cells)")
+    parser.add_argument("--cut", help="grow-regrow: the damage, 'paper' (the default: grid "
+                                      "x-indices below the centre) or a half-space such as "
+                                      "'z > 4'")
+    parser.add_argument("--cell-cost", type=float,
+                        help="grow-regrow: voxel lengths of walking one wrongly regrown cell "
+                             "costs (default 0.1)")
     parser.add_argument("--dim", type=int, choices=(2, 3), help="2D or 3D robots (default 3)")
     parser.add_argument("--net", choices=("ff", "lstm"), help="NCA network (default ff)")
     add_ga_arguments(parser, preset_help="GA preset (default: 2d or 3d by --dim)")
@@ -60,11 +70,14 @@ def add_evolve(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _evolve(args: argparse.Namespace) -> int:
-    from mjregen.experiments.locomotion import evolve_locomotion
+    from mjregen.experiments.locomotion import evolve_grow_regrow, evolve_locomotion
     from mjregen.growth.nca import NCAConfig
     from mjregen.search.backends import make_backend
+    from mjregen.tasks.grow_regrow import GrowRegrowTask
 
     if optimizer(args) == "map-elites":
+        if args.task not in (None, "locomotion") or args.cut or args.cell_cost is not None:
+            raise MjregenError("MAP-Elites searches the locomotion task only")
         return run_map_elites_command(args)
     given = [flag for flag, value in (("--descriptors", args.descriptors), ("--cells", args.cells),
                                       ("--emitter", args.emitter), ("--emitters", args.emitters),
@@ -74,15 +87,21 @@ def _evolve(args: argparse.Namespace) -> int:
     if args.resume:
         task, ga, seed = _stored_run(args)
         nca, physics, duration = task.nca, task.physics, task.duration
+        regrowth = ({"cut": task.cut, "cell_cost": task.cell_cost}
+                    if isinstance(task, GrowRegrowTask) else None)
     else:
         dim = args.dim or 3
         ga, seed = ga_config(args, f"{dim}d"), (0 if args.seed is None else args.seed)
         nca = NCAConfig(dim=dim, kind=args.net or "ff")
         physics, duration = physics_from_args(args), args.duration
+        regrowth = _regrowth_objective(args)
+    common = dict(out=args.out, nca=nca, ga=ga, seed=seed, physics=physics, duration=duration,
+                  resume=args.resume, force=args.force, progress=not args.quiet)
     with make_backend(args.backend, workers=args.workers, address=args.address) as backend:
-        summary = evolve_locomotion(out=args.out, nca=nca, ga=ga, seed=seed, backend=backend,
-                                    physics=physics, duration=duration, resume=args.resume,
-                                    force=args.force, progress=not args.quiet)
+        if regrowth is None:
+            summary = evolve_locomotion(backend=backend, **common)
+        else:
+            summary = evolve_grow_regrow(backend=backend, **regrowth, **common)
     if args.json:
         print(json.dumps({"out": str(summary.out), "generations": summary.generations,
                           "best_fitness": summary.best_fitness,
@@ -93,12 +112,37 @@ def _evolve(args: argparse.Namespace) -> int:
     return 0
 
 
+def _regrowth_objective(args: argparse.Namespace) -> dict | None:
+    """--cut and --cell-cost of a new grow-regrow run, None for the locomotion task."""
+    if args.task != "grow-regrow":
+        if args.cut is not None or args.cell_cost is not None:
+            raise MjregenError("--cut and --cell-cost belong to --task grow-regrow")
+        return None
+    from mjregen.grid import half_space_mask
+    from mjregen.tasks.grow_regrow import PAPER_CUT, cut_condition
+
+    cut = args.cut or PAPER_CUT
+    size = 9 if (args.dim or 3) == 3 else 7
+    try:
+        half_space_mask((size,) * (args.dim or 3), cut_condition(cut, size))
+    except ValueError as error:
+        raise MjregenError(f"--cut {cut!r}: {error}") from None
+    cell_cost = 0.1 if args.cell_cost is None else args.cell_cost
+    if not (math.isfinite(cell_cost) and cell_cost >= 0.0):
+        raise MjregenError(f"--cell-cost must be finite and >= 0, got {cell_cost!r}")
+    return {"cut": cut, "cell_cost": cell_cost}
+
+
 def _stored_run(args: argparse.Namespace) -> tuple:
     """Task, GA settings and seed of the run in ``args.out``; flags given must agree."""
     from mjregen.experiments.locomotion import stored_locomotion_run
+    from mjregen.tasks.grow_regrow import GrowRegrowTask
 
     task, ga, seed = stored_locomotion_run(args.out)
-    given = {"dim": (args.dim, task.nca.dim), "net": (args.net, task.nca.kind),
+    regrows = isinstance(task, GrowRegrowTask)
+    given = {"task": (args.task, "grow-regrow" if regrows else "locomotion"),
+             "cut": (args.cut, task.cut if regrows else None),
+             "cell-cost": (args.cell_cost, task.cell_cost if regrows else None),"dim": (args.dim, task.nca.dim), "net": (args.net, task.nca.kind),
              "pop": (args.pop, ga.population), "gens": (args.gens, ga.generations),
              "truncation": (args.truncation, ga.truncation), "elites": (args.elites, ga.elites),
              "sigma": (args.sigma, ga.sigma), "seed": (args.seed, seed),

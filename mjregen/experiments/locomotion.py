@@ -16,6 +16,7 @@ from mjregen.search.ga import GAConfig
 from mjregen.search.map_elites import MapElitesConfig
 from mjregen.search.qd_runs import QDRunSummary, run_map_elites
 from mjregen.search.runs import RunSummary, run_evolution
+from mjregen.tasks.grow_regrow import PAPER_CUT, GrowRegrowTask
 from mjregen.tasks.locomotion import LocomotionTask
 
 
@@ -43,6 +44,34 @@ def evolve_locomotion(*, out: str | Path, nca: NCAConfig, ga: GAConfig, seed: in
     return run_evolution(task, ga, seed=seed, out=out, backend=backend,
                          task_config=task.to_config(), resume=resume, force=force,
                          progress=progress)
+
+
+def evolve_grow_regrow(*, out: str | Path, nca: NCAConfig, ga: GAConfig, seed: int,
+                       backend: Backend, physics: Physics | None = None,
+                       duration: float | None = None, cut: str = PAPER_CUT,
+                       cell_cost: float = 0.1, resume: bool = False, force: bool = False,
+                       progress: bool = True) -> RunSummary:
+    """Evolve one NCA whose robot walks far and that regrows it after `cut`
+    (`mjregen.tasks.grow_regrow`), into the run folder `out`. Arguments as for
+    `evolve_locomotion`; `cut` ("paper" or a half-space condition) and `cell_cost` (voxel
+    lengths per wrongly regrown cell) as for `GrowRegrowTask`."""
+    task = GrowRegrowTask(nca=nca, physics=physics or Physics(), duration=duration, cut=cut,
+                          cell_cost=cell_cost)
+    return run_evolution(task, ga, seed=seed, out=out, backend=backend,
+                         task_config=task.to_config(), resume=resume, force=force,
+                         progress=progress)
+
+
+def task_from_config(config: dict) -> LocomotionTask | GrowRegrowTask:
+    """The walking task a run's config.json "task" entry describes.
+
+    Raises:
+      ValueError: another task. KeyError: an entry is missing.
+    """
+    kinds = {"locomotion": LocomotionTask, "grow-regrow": GrowRegrowTask}
+    if config.get("task") not in kinds:
+        raise ValueError(f"not a walking task: {config.get('task')!r}")
+    return kinds[config["task"]].from_config(config)
 
 
 def map_elites_locomotion(*, out: str | Path, nca: NCAConfig, config: MapElitesConfig,
@@ -80,15 +109,17 @@ def stored_optimizer(out: str | Path) -> str:
     return "map-elites" if "map_elites" in _stored_config(out)[1] else "ga"
 
 
-def stored_locomotion_run(out: str | Path) -> tuple[LocomotionTask, GAConfig, int]:
-    """(task, GA settings, seed) a locomotion GA run folder was started with.
+def stored_locomotion_run(out: str | Path) -> tuple[LocomotionTask | GrowRegrowTask,
+                                                     GAConfig, int]:
+    """(task, GA settings, seed) a walking GA run folder (locomotion or grow-regrow) was
+    started with.
 
     Raises:
       MjregenError: no config.json in `out`, or one that is not a locomotion GA run's.
     """
     path, stored = _stored_config(out)
     try:
-        return (LocomotionTask.from_config(stored["task"]), GAConfig(**stored["ga"]),
+        return (task_from_config(stored["task"]), GAConfig(**stored["ga"]),
                 int(stored["seed"]))
     except (KeyError, TypeError, ValueError) as error:
         raise MjregenError(f"{path} is not a readable run configuration of a locomotion run: "

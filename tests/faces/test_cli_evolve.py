@@ -91,3 +91,18 @@ def test_evolve_stats(tmp_path, capsys):
     assert report["ff"]["runs"] == 2 and len(report["ff"]["mean"]) == 2
     assert png.read_bytes()[:4] == b"\x89PNG"
     assert main(["evolve-stats", "--group", "x", str(tmp_path / "nope"), "--out", str(png)]) == 1
+
+
+def test_grow_regrow_runs_resume_and_refuse_other_settings(tmp_path, capsys):
+    out = tmp_path / "run"
+    assert main(["evolve", *TINY, "--task", "grow-regrow", "--cut", "z > 3", "--cell-cost",
+                 "0.3", "--gens", "2", "--backend", "serial", "--out", str(out)]) == 0
+    config = json.loads((out / "config.json").read_text())["task"]
+    assert (config["task"], config["cut"], config["cell_cost"]) == ("grow-regrow", "z > 3", 0.3)
+    with open(out / "metrics.csv") as handle:
+        assert len(list(csv.DictReader(handle))) == 2
+    assert main(["evolve", "--out", str(out), "--resume", "--backend", "serial", "--quiet"]) == 0
+    assert main(["evolve", "--out", str(out), "--resume", "--cell-cost", "1", "--quiet"]) == 1
+    assert "--cell-cost 1.0 (run has 0.3)" in capsys.readouterr().err
+    assert main(["evolve", *TINY, "--cut", "x < 3", "--out", str(tmp_path / "b")]) == 1
+    assert "belong to --task grow-regrow" in capsys.readouterr().err

@@ -1,0 +1,122 @@
+"""One NCA that grows a walking robot and regrows it after damage.
+
+The paper evolves two networks, one that grows and one that regrows, and names that as its
+limitation. Here one genome does both: its NCA grows a robot from the seed (the locomotion
+task), the grown CA state is damaged as in the paper (its cells on one side of a plane
+erased, state, alpha and LSTM memory), and the same NCA runs its growth steps again from
+the damaged state (it keeps its own memory: it is the same network). The fitness adds both:
+
+    fitness = locomotion fitness - cell_cost × (cells - similarity)
+
+similarity being the cells (of 729 in 3D) of the regrown grid equal to the grown one, so
+each cell the regrowth gets wrong costs `cell_cost` voxel lengths of walking.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+import torch
+
+from mjregen.grid import half_space_mask
+from mjregen.growth.nca import CAState, Growth, NCAConfig, grow
+from mjregen.physics import Physics
+from mjregen.tasks.evaluation import PopulationEvaluation
+from mjregen.tasks.locomotion import LocomotionTask
+from mjregen.tasks.regrowth import cut_half_space
+
+if TYPE_CHECKING:  # the search layer hands a task its backend
+    from mjregen.search.backends import Backend
+
+PAPER_CUT = "paper"  # the paper's damage: grid x-indices below the centre
+
+
+def grown_states(growth: Growth) -> CAState:
+    """The CA states a population's growth leaves, as the paper's code keeps them for
+    regrowth: the cleaned grids, every cell's grown alpha and the memory."""
+    final = growth.final
+    memory = None if final.memory is None else tuple(m.clone() for m in final.memory)
+    return CAState(torch.from_numpy(growth.grids.astype(np.int64)), final.alpha.clone(), memory)
+
+
+def cut_condition(cut: str, grid_size: int) -> str:
+    """The half-space condition of a cut: "paper" is ``x < centre`` (0-3 of 9)."""
+    return f"x < {grid_size // 2}" if cut == PAPER_CUT else cut
+
+
+def regrow_after_cut(config: NCAConfig, genomes: np.ndarray, growth: Growth,
+                     cut: str = PAPER_CUT) -> np.ndarray:
+    """int8 ``(P, *grid)``: each genome's robot regrown by its own NCA after `cut` (a
+    half-space condition such as ``"z > 4"``, or "paper") of its grown state."""
+    damaged = cut_half_space(grown_states(growth), cut_condition(cut, config.grid_size))
+    return grow(config, genomes, start=damaged).grids
+
+
+def own_similarity(regrown: np.ndarray, grown: np.ndarray) -> np.ndarray:
+    """Cells of each regrown grid equal to its own grown grid, ``(P,)``."""
+    return (regrown == grown).reshape(len(grown), -1).sum(axis=1)
+
+
+@dataclass(frozen=True)
+class GrowRegrowTask:
+    """Grow robots that walk far and regrow after `cut` (see the module docstring).
+
+    Attributes:
+      nca: the network that grows and regrows.
+      physics, duration: the walk, as in `LocomotionTask`.
+      cut: the damage during evolution: "paper" or a half-space condition ("y > 4").
+      cell_cost: voxel lengths of walking one wrongly regrown cell costs.
+    """
+
+    nca: NCAConfig
+    physics: Physics = field(default_factory=Physics)
+    duration: float | None = None
+    cut: str = PAPER_CUT
+    cell_cost: float = 0.1
+    _locomotion: LocomotionTask = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        if not (np.isfinite(self.cell_cost) and self.cell_cost >= 0.0):
+            raise ValueError(f"cell_cost must be finite and >= 0, got {self.cell_cost!r}")
+        half_space_mask(self.nca.grid_shape, cut_condition(self.cut, self.nca.grid_size))
+        object.__setattr__(self, "_locomotion", LocomotionTask(
+            nca=self.nca, physics=self.physics, duration=self.duration))
+
+    def to_config(self) -> dict:
+        """The task as JSON (a run folder's config.json "task" entry)."""
+        return {**self._locomotion.to_config(), "task": "grow-regrow", "cut": self.cut,
+                "cell_cost": self.cell_cost}
+
+    @classmethod
+    def from_config(cls, config: dict) -> GrowRegrowTask:
+        """The task `to_config` described.
+
+        Raises:
+          ValueError: not a grow-regrow task's configuration. KeyError: an entry is missing.
+        """
+        if config.get("task") != "grow-regrow":
+            raise ValueError(f"not a grow-regrow task: {config.get('task')!r}")
+        walk = LocomotionTask.from_config({**config, "task": "locomotion"})
+        return cls(nca=walk.nca, physics=walk.physics, duration=walk.duration,
+                   cut=config["cut"], cell_cost=float(config["cell_cost"]))
+
+    @property
+    def lowest_fitness(self) -> float:
+        """Below every fitness: an unstable walk whose regrowth got every cell wrong."""
+        return self._locomotion.lowest_fitness - self.cell_cost * np.prod(self.nca.grid_shape)
+
+    def evaluate(self, genomes: np.ndarray, backend: Backend) -> PopulationEvaluation:
+        """Score a population of genomes ``(P, G)``: walk, cut, regrow."""
+        walked = self._locomotion.evaluate(genomes, backend)
+        growth = grow(self.nca, genomes)
+        regrown = regrow_after_cut(self.nca, genomes, growth, self.cut)
+        score = own_similarity(regrown, growth.grids)
+        cells = int(np.prod(self.nca.grid_shape))
+        return PopulationEvaluation(
+            fitness=walked.fitness - self.cell_cost * (cells - score), grids=walked.grids,
+            details={**walked.details, "locomotion": walked.fitness, "similarity": score},
+            stable=walked.stable, failed=walked.failed, errors=walked.errors,
+            tracebacks=walked.tracebacks, n_distinct=walked.n_distinct,
+            sim_cpu_time=walked.sim_cpu_time)

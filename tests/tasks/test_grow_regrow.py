@@ -1,0 +1,68 @@
+"""One NCA that grows and regrows: its damage and regrowth are the paper's regrowth with
+the growing network itself, and its fitness adds the walk and the regrowth's similarity."""
+
+import numpy as np
+import pytest
+
+from mjregen.growth.nca import NCAConfig, grow, random_genomes
+from mjregen.physics import Physics
+from mjregen.search.backends import SerialBackend
+from mjregen.tasks.grow_regrow import GrowRegrowTask, own_similarity, regrow_after_cut
+from mjregen.tasks.locomotion import LocomotionTask
+from mjregen.tasks.regrowth import RegrowthTask, paper_cut, similarity, state_of_growth
+
+FAST = Physics().replace(settle_time=0.01)
+
+
+def test_feed_forward_regrowth_is_the_papers_regrowth_by_the_same_network():
+    config = NCAConfig(dim=3, kind="ff")
+    genomes = random_genomes(config, 4, seed=2)
+    growth = grow(config, genomes)
+    regrown = regrow_after_cut(config, genomes, growth)
+    for i, genome in enumerate(genomes):
+        paper = RegrowthTask(nca=config, original=growth.grids[i],
+                             damaged=paper_cut(state_of_growth(growth, i)))
+        assert np.array_equal(regrown[i], paper.regrow(genome).grids[0])
+        assert own_similarity(regrown, growth.grids)[i] == similarity(regrown[i:i + 1],
+                                                                      growth.grids[i])[0]
+
+
+def test_an_lstm_regrows_with_its_own_memory():
+    config = NCAConfig(dim=2, kind="lstm")
+    genomes = random_genomes(config, 6, seed=3)
+    growth = grow(config, genomes)
+    regrown = regrow_after_cut(config, genomes, growth)
+    fresh = [RegrowthTask(nca=config, original=growth.grids[i],
+                          damaged=paper_cut(state_of_growth(growth, i))).regrow(g).grids[0]
+             for i, g in enumerate(genomes)]
+    # the same network continues (memory kept); the paper's second network starts afresh
+    assert any(not np.array_equal(a, b) for a, b in zip(regrown, fresh))
+
+
+def test_fitness_is_the_walk_minus_the_wrongly_regrown_cells():
+    config = NCAConfig(dim=2, kind="ff")
+    genomes = random_genomes(config, 5, seed=4)
+    task = GrowRegrowTask(nca=config, physics=FAST, duration=0.02, cell_cost=0.25)
+    result = task.evaluate(genomes, SerialBackend())
+    walk = LocomotionTask(nca=config, physics=FAST, duration=0.02).evaluate(genomes,
+                                                                            SerialBackend())
+    growth = grow(config, genomes)
+    score = own_similarity(regrow_after_cut(config, genomes, growth), growth.grids)
+    assert np.array_equal(result.details["similarity"], score)
+    assert np.allclose(result.fitness, walk.fitness - 0.25 * (49 - score))
+    assert np.all(result.fitness >= task.lowest_fitness)
+    free = GrowRegrowTask(nca=config, physics=FAST, duration=0.02, cell_cost=0.0)
+    assert np.allclose(free.evaluate(genomes, SerialBackend()).fitness, walk.fitness)
+
+
+def test_configuration_round_trip_and_bad_settings():
+    task = GrowRegrowTask(nca=NCAConfig(dim=3, kind="lstm"), duration=0.3, cut="z > 4",
+                          cell_cost=0.2)
+    again = GrowRegrowTask.from_config(task.to_config())
+    assert again == task and again.to_config() == task.to_config()
+    with pytest.raises(ValueError, match="cell_cost"):
+        GrowRegrowTask(nca=NCAConfig(dim=3), cell_cost=-1.0)
+    with pytest.raises(ValueError, match="axis"):
+        GrowRegrowTask(nca=NCAConfig(dim=2), cut="y > 2")
+    with pytest.raises(ValueError, match="not a grow-regrow task"):
+        GrowRegrowTask.from_config(LocomotionTask(nca=NCAConfig(dim=3)).to_config())
