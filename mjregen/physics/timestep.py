@@ -36,6 +36,7 @@ LANCZOS_STEPS = 40
 MODE_RATIO = 2.7  # fastest bond-network mode / a Timoshenko bond's sqrt(k/m)
 RELATIVE_PROBE = 1e-7  # largest probe displacement, in voxel lengths (or radians)
 BREAKDOWN = 1e-7  # Lanczos stops at a residual this small relative to the operator
+CONVERGED = 1e-10  # ... or when its largest Ritz value moves less than this, relatively
 
 
 def rotational_dofs(model: mujoco.MjModel) -> np.ndarray:
@@ -104,11 +105,13 @@ def largest_eigenvalue(apply, n: int, steps: int = LANCZOS_STEPS, seed: int = 0)
     """Largest eigenvalue of a symmetric operator `apply` on R^n (Lanczos with full
     reorthogonalisation, `steps` iterations, random start from `seed`).
 
-    The iteration stops when the Krylov space is exhausted: the residual is below
-    BREAKDOWN × the largest coefficient so far (the finite-difference operators are exact
-    to about 1e-9 of it, so a smaller residual is their noise; continuing would build
-    basis vectors from noise, whose coefficients grow without bound: small robots with
-    several separate pieces exhaust their space in fewer than `steps` iterations)."""
+    The iteration stops early when the Krylov space is spent: the residual is below
+    BREAKDOWN × the largest coefficient so far, or the largest Ritz value has stopped
+    moving (by less than CONVERGED of itself in each of the last two steps). Beyond that
+    the basis would be built from the finite-difference operators' noise (and, for the
+    engine's non-symmetric damping, its asymmetric part), whose coefficients grow without
+    bound: small robots of several separate pieces have few distinct modes and spend their
+    space in fewer than `steps` iterations."""
     if n == 0:
         return 0.0
     rng = np.random.default_rng(seed)
@@ -116,6 +119,7 @@ def largest_eigenvalue(apply, n: int, steps: int = LANCZOS_STEPS, seed: int = 0)
     basis = [q / np.linalg.norm(q)]
     alphas, betas = [], []
     scale = 0.0  # the largest |coefficient| so far: the operator's size
+    ritz = []  # the largest Ritz value after each step
     for k in range(min(steps, n)):
         w = apply(basis[k])
         alpha = float(basis[k] @ w)
@@ -126,13 +130,29 @@ def largest_eigenvalue(apply, n: int, steps: int = LANCZOS_STEPS, seed: int = 0)
         w -= np.einsum("kn,k->n", stack, np.einsum("kn,n->k", stack, w))
         beta = float(np.linalg.norm(w))
         scale = max(scale, abs(alpha), betas[-1] if betas else 0.0)
-        if beta <= BREAKDOWN * scale or beta == 0.0:
+        ritz.append(_largest_ritz(alphas, betas))
+        if beta <= BREAKDOWN * scale or beta == 0.0 or _converged(ritz):
             break
         betas.append(beta)
         basis.append(w / beta)
+    return ritz[-1]
+
+
+def _largest_ritz(alphas: list[float], betas: list[float]) -> float:
+    """Largest eigenvalue of the Lanczos tridiagonal matrix of `alphas` (its diagonal)
+    and the first len(alphas) - 1 `betas`."""
     size = len(alphas)
     tridiagonal = np.diag(alphas) + np.diag(betas[: size - 1], 1) + np.diag(betas[: size - 1], -1)
     return float(np.max(np.linalg.eigvalsh(tridiagonal)))
+
+
+def _converged(ritz: list[float]) -> bool:
+    """The largest Ritz value moved by less than CONVERGED of itself in each of the last
+    two steps."""
+    if len(ritz) < 3:
+        return False
+    top = abs(ritz[-1])
+    return all(abs(ritz[-i] - ritz[-i - 1]) <= CONVERGED * top for i in (1, 2))
 
 
 def network_rates(model: mujoco.MjModel, *, voxel_size: float, instance: int = 0,
