@@ -94,7 +94,7 @@ def _evolve(args: argparse.Namespace) -> int:
         ga, seed = ga_config(args, f"{dim}d"), (0 if args.seed is None else args.seed)
         nca = NCAConfig(dim=dim, kind=args.net or "ff")
         physics, duration = physics_from_args(args), args.duration
-        regrowth = _regrowth_objective(args)
+        regrowth = _regrowth_objective(args, nca)
     common = dict(out=args.out, nca=nca, ga=ga, seed=seed, physics=physics, duration=duration,
                   resume=args.resume, force=args.force, progress=not args.quiet)
     with make_backend(args.backend, workers=args.workers, address=args.address) as backend:
@@ -112,8 +112,9 @@ def _evolve(args: argparse.Namespace) -> int:
     return 0
 
 
-def _regrowth_objective(args: argparse.Namespace) -> dict | None:
-    """--cut and --cell-cost of a new grow-regrow run, None for the locomotion task."""
+def _regrowth_objective(args: argparse.Namespace, nca) -> dict | None:
+    """--cut and --cell-cost of a new grow-regrow run of `nca` (an NCAConfig), None for the
+    locomotion task."""
     if args.task != "grow-regrow":
         if args.cut is not None or args.cell_cost is not None:
             raise MjregenError("--cut and --cell-cost belong to --task grow-regrow")
@@ -122,9 +123,8 @@ def _regrowth_objective(args: argparse.Namespace) -> dict | None:
     from mjregen.tasks.grow_regrow import PAPER_CUT, cut_condition
 
     cut = args.cut or PAPER_CUT
-    size = 9 if (args.dim or 3) == 3 else 7
     try:
-        half_space_mask((size,) * (args.dim or 3), cut_condition(cut, size))
+        half_space_mask(nca.grid_shape, cut_condition(cut, nca.grid_size))
     except ValueError as error:
         raise MjregenError(f"--cut {cut!r}: {error}") from None
     cell_cost = 0.1 if args.cell_cost is None else args.cell_cost
@@ -142,7 +142,8 @@ def _stored_run(args: argparse.Namespace) -> tuple:
     regrows = isinstance(task, GrowRegrowTask)
     given = {"task": (args.task, "grow-regrow" if regrows else "locomotion"),
              "cut": (args.cut, task.cut if regrows else None),
-             "cell-cost": (args.cell_cost, task.cell_cost if regrows else None),"dim": (args.dim, task.nca.dim), "net": (args.net, task.nca.kind),
+             "cell-cost": (args.cell_cost, task.cell_cost if regrows else None),
+             "dim": (args.dim, task.nca.dim), "net": (args.net, task.nca.kind),
              "pop": (args.pop, ga.population), "gens": (args.gens, ga.generations),
              "truncation": (args.truncation, ga.truncation), "elites": (args.elites, ga.elites),
              "sigma": (args.sigma, ga.sigma), "seed": (args.seed, seed),

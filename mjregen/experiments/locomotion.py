@@ -1,7 +1,7 @@
-"""Locomotion searches as one library call: `evolve_locomotion` (the GA) and
-`map_elites_locomotion` (MAP-Elites) write the run folder `mjregen evolve` writes;
-`stored_optimizer`, `stored_locomotion_run` and `stored_map_elites_run` read back what a
-folder was started with."""
+"""Walking searches as one library call: `evolve_locomotion` (the GA), `evolve_grow_regrow`
+(the GA on one NCA that grows and regrows) and `map_elites_locomotion` (MAP-Elites) write
+the run folder `mjregen evolve` writes; `stored_locomotion_run` and `stored_map_elites_run`
+read back what a folder was started with."""
 
 from __future__ import annotations
 
@@ -98,15 +98,6 @@ def _stored_config(out: str | Path) -> tuple[Path, dict]:
     if not isinstance(stored, dict):
         raise MjregenError(f"{path} is not a run configuration (not a JSON object)")
     return path, stored
-
-
-def stored_optimizer(out: str | Path) -> str:
-    """"ga" or "map-elites": the search a run folder holds.
-
-    Raises:
-      MjregenError: no readable config.json in `out`.
-    """
-    return "map-elites" if "map_elites" in _stored_config(out)[1] else "ga"
 
 
 def stored_locomotion_run(out: str | Path) -> tuple[LocomotionTask | GrowRegrowTask,
