@@ -43,6 +43,7 @@ from mjregen.tasks.locomotion import LocomotionTask
 METHODS = ("ga", "map-elites")
 DESCRIPTORS = ("voxels", "muscle")
 WALKING = 0.25  # a morphology walks when it goes this fraction of the comparison's farthest
+SMALL = 50  # voxels: a small robot (where the fitness's voxel cost pushes the GA)
 ROOT_DOCS = Path(__file__).resolve().parent.parent / "docs"
 
 
@@ -157,7 +158,9 @@ def report(args: argparse.Namespace) -> None:
         qd = [archive_of(data, upto=b + 1).stats()["qd_score"] for b in range(batches)]
         curves[method]["best"].append(best)
         curves[method]["qd"].append(qd)
+        voxels = np.count_nonzero(data["grids"].reshape(len(data["grids"]), -1), axis=1)
         rows[(method, seed)] = {"evaluations": len(data["fitness"]), "best": stats["best"],
+                                "small": float(np.mean(voxels <= SMALL)),
                                 "qd_score": stats["qd_score"], "coverage": stats["coverage"],
                                 "walking": walking,
                                 "distance": float(np.nanmax(data["distance"]))}
@@ -230,7 +233,12 @@ def write_markdown(args: argparse.Namespace, rows: dict, farthest: float) -> Non
         lines.append(f"| **{method} mean** | | | {values['best'].mean():.2f} | "
                      f"{values['qd_score'].mean():.0f} | {values['coverage'].mean():.1%} | "
                      f"{values['walking'].mean():.1f} | |")
-    lines += ["", "![best fitness and QD score over evaluations](quality_diversity/curves.png)", "",
+    small = {m: np.mean([rows[(m, s)]["small"] for s in args.seeds]) for m in METHODS}
+    lines += ["", f"Share of the evaluations that are small robots (at most {SMALL} voxels): "
+              + ", ".join(f"{m} {small[m]:.0%}" for m in METHODS) + ". The QD score counts "
+              "each filled cell's elite's fitness + 21, so with most elites near -10 it "
+              "mostly counts filled cells (coverage).", "",
+              "![best fitness and QD score over evaluations](quality_diversity/curves.png)", "",
               "Every evaluation of seed 0 placed in the archive, GA and MAP-Elites:", "",
               "![GA](quality_diversity/heatmap_ga.png) "
               "![MAP-Elites](quality_diversity/heatmap_map-elites.png)", "",
