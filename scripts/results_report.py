@@ -429,7 +429,9 @@ class Report:
                  + ". Regenerate instead of editing.", "",
                  "Each row: `mjregen regen --paper ROBOT --net NET --gens 1001 --seed 0` (the "
                  "paper's regeneration GA: population 1000, top 200, 200 elites, σ 0.1, and the "
-                 "1001 generations of its code's `range(1001)`), shipped with "
+                 "1001 generations of its code's `range(1001)`; rows of a smaller GA add "
+                 "`--pop 200 --gens 201`, a twenty-fifth of that work, with the same shares of "
+                 "top and elites), shipped with "
                  "`scripts/ship_regrowth.py`, which replays it: the damaged CA state regrown by "
                  "the best NCA, then the original, damaged and regrown robots walked with "
                  "today's default physics (the paper engine's laws, docs/fidelity.md).", "")
