@@ -165,8 +165,8 @@ class Report:
                  "python scripts/ship_assets.py --best --walkers --overwrite --replace-default",
                  "python scripts/results_report.py",
                  "```",
-                 "At the reduced scale of this document (`--scale quick`, about 75 minutes on two "
-                 "cores), as the settings table below states:",
+                 "At a reduced scale (`--scale quick`, about 75 minutes on two cores); the "
+                 "settings table below says at which scale each condition here ran:",
                  "```bash",
                  "python scripts/paper_experiments.py --scale quick --workers 2",
                  "python scripts/ship_assets.py --best --walkers --overwrite --replace-default",
