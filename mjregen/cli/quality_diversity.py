@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 
 from mjregen.cli.common import physics_from_args
@@ -120,7 +121,7 @@ def run_map_elites_command(args: argparse.Namespace) -> int:
                                     summary.out / "gallery.png", physics=physics,
                                     overwrite=True)
         except ValueError as error:  # nothing with voxels in the archive
-            print(f"mjregen: no gallery: {error}")
+            print(f"mjregen: no gallery: {error}", file=sys.stderr)
     result = {"out": str(summary.out), "iterations": summary.iterations,
               "best_fitness": summary.best_fitness, "qd_score": summary.qd_score,
               "coverage": summary.coverage, "elites": summary.elites,
