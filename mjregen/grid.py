@@ -122,6 +122,29 @@ def face_neighbour_count(filled: np.ndarray, dim: int) -> np.ndarray:
     return count
 
 
+def count_pieces(filled: np.ndarray) -> int:
+    """Face-connected pieces of the True cells of `filled` (bool, any number of axes)."""
+    labels = np.zeros(filled.shape, dtype=np.int32)
+    count = 0
+    for start in zip(*np.nonzero(filled)):
+        if labels[start]:
+            continue
+        count += 1
+        labels[start] = count
+        stack = [start]
+        while stack:
+            cell = stack.pop()
+            for axis in range(filled.ndim):
+                for step in (-1, 1):
+                    near = list(cell)
+                    near[axis] += step
+                    near = tuple(near)
+                    if 0 <= near[axis] < filled.shape[axis] and filled[near] and not labels[near]:
+                        labels[near] = count
+                        stack.append(near)
+    return count
+
+
 def clean_grids(grids: np.ndarray, dim: int) -> np.ndarray:
     """The paper's cleaning of grown robots, for one grid or a whole batch.
 

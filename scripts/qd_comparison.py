@@ -121,19 +121,24 @@ def evaluations(run: Path) -> dict[str, np.ndarray]:
     return {key: np.concatenate(value) for key, value in parts.items()}
 
 
-def archive_of(found: dict[str, np.ndarray], upto: int | None = None) -> MapElites:
-    """All evaluations (of the first `upto` batches) placed in a fresh archive of the
-    comparison's descriptors and cells."""
-    keep = slice(None) if upto is None else found["batch"] < upto
-    grids, fitness = found["grids"][keep], found["fitness"][keep]
+def archive_of(found: dict[str, np.ndarray]) -> tuple[MapElites, list[float]]:
+    """All evaluations placed, batch by batch, in a fresh archive of the comparison's
+    descriptors and cells; with the QD score after each batch."""
+    grids = found["grids"]
     shape = grids.shape[1:]
     config = MapElitesConfig(iterations=1, batch=1, emitters=1, descriptors=DESCRIPTORS,
                              cells=default_cells(DESCRIPTORS, shape))
     search = MapElites(config, 1, ranges=descriptor_ranges(DESCRIPTORS, shape), seed=0,
                        qd_score_offset=-21.0, extra_fields={"distance": ((), np.float64)})
-    search.archive.add(np.zeros((len(fitness), 1), dtype=np.float32), fitness,
-                       describe(grids, DESCRIPTORS), distance=np.nan_to_num(found["distance"][keep]))
-    return search
+    measures = describe(grids, DESCRIPTORS)
+    distance = np.nan_to_num(found["distance"])
+    scores = []
+    for batch in range(int(found["batch"].max()) + 1):
+        rows = found["batch"] == batch
+        search.archive.add(np.zeros((int(rows.sum()), 1), dtype=np.float32),
+                           found["fitness"][rows], measures[rows], distance=distance[rows])
+        scores.append(search.stats()["qd_score"])
+    return search, scores
 
 
 def report(args: argparse.Namespace) -> None:
@@ -148,14 +153,12 @@ def report(args: argparse.Namespace) -> None:
     farthest = max(float(np.nanmax(f["distance"])) for f in found.values())
     rows, curves = {}, {m: {"best": [], "qd": []} for m in METHODS}
     for (method, seed), data in found.items():
-        archive = archive_of(data)
+        archive, qd = archive_of(data)
         elites = archive.archive.data()
         stats = archive.stats()
         walking = int(np.count_nonzero(elites["distance"] >= WALKING * farthest))
-        batches = int(data["batch"].max()) + 1
         best = np.maximum.accumulate([data["fitness"][data["batch"] == b].max()
-                                      for b in range(batches)])
-        qd = [archive_of(data, upto=b + 1).stats()["qd_score"] for b in range(batches)]
+                                      for b in range(len(qd))])
         curves[method]["best"].append(best)
         curves[method]["qd"].append(qd)
         voxels = np.count_nonzero(data["grids"].reshape(len(data["grids"]), -1), axis=1)
@@ -184,7 +187,7 @@ def report(args: argparse.Namespace) -> None:
     save_png(figure, figures / "curves.png")
     seed0 = args.seeds[0]
     for method in METHODS:
-        archive = archive_of(found[(method, seed0)])
+        archive, _ = archive_of(found[(method, seed0)])
         shape = found[(method, seed0)]["grids"].shape[1:]
         archive_heatmap(archive.snapshot().fitness_grid(), DESCRIPTORS,
                         descriptor_ranges(DESCRIPTORS, shape), figures / f"heatmap_{method}.png",

@@ -14,12 +14,11 @@ from mjregen.growth.nca import NCA
 from mjregen.physics import Physics
 from mjregen.tasks.grow_regrow import (
     PAPER_CUT,
-    cut_condition,
-    grown_states,
+    damaged_states,
     own_similarity,
     regrow_after_cut,
 )
-from mjregen.tasks.regrowth import cut_half_space, damaged_robot
+from mjregen.tasks.regrowth import damaged_robot
 
 
 @dataclass(frozen=True)
@@ -64,8 +63,8 @@ def self_regrowth_report(nca: NCA, *, physics: Physics | None = None,
         similarity[cut] = int(own_similarity(regrown, growth.grids)[0])
         if cut == PAPER_CUT:
             regrown_paper = regrown[0]
-    damaged = cut_half_space(grown_states(growth), cut_condition(PAPER_CUT, config.grid_size))
-    robots = {"original": growth.robot(), "damaged": damaged_robot(damaged),
+    robots = {"original": growth.robot(),
+              "damaged": damaged_robot(damaged_states(config, growth, PAPER_CUT)),
               "regrown": Robot(regrown_paper)}
     return SelfRegrowthReport(cells=int(growth.grids[0].size), similarity=similarity,
                               recovery=measure_recovery(robots, physics=physics,

@@ -19,7 +19,7 @@ import numpy as np
 from mjregen.errors import MjregenError
 from mjregen.experiments.paper import CONDITIONS, DEFAULT_ROOT, list_runs
 from mjregen.fileio import atomic_open
-from mjregen.grid import Material, Robot
+from mjregen.grid import Material, Robot, count_pieces
 
 MIN_WALK = 0.25  # a walker covers at least this fraction of the farthest candidate's distance
 DIVERSITY = (
@@ -37,26 +37,7 @@ FEATURES = ("voxels", "soft", "hard", "muscle_plus", "muscle_minus", "feet", "le
 
 def pieces(robot: Robot) -> int:
     """Number of face-connected pieces of the robot."""
-    filled = robot.grid != 0
-    labels = np.zeros(filled.shape, dtype=np.int32)
-    count = 0
-    for start in zip(*np.nonzero(filled)):
-        if labels[start]:
-            continue
-        count += 1
-        labels[start] = count
-        stack = [start]
-        while stack:
-            cell = stack.pop()
-            for axis in range(filled.ndim):
-                for step in (-1, 1):
-                    n = list(cell)
-                    n[axis] += step
-                    n = tuple(n)
-                    if 0 <= n[axis] < filled.shape[axis] and filled[n] and not labels[n]:
-                        labels[n] = count
-                        stack.append(n)
-    return count
+    return count_pieces(robot.grid != 0)
 
 
 def morphology(robot: Robot) -> dict[str, float]:

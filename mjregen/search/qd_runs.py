@@ -50,6 +50,7 @@ from mjregen.search.run_folder import (
     read_metrics,
     write_metrics,
 )
+from mjregen.search.runs import Task
 from mjregen.tasks.descriptors import describe, descriptor_ranges
 from mjregen.tasks.evaluation import PopulationEvaluation
 
@@ -60,13 +61,11 @@ QD_METRICS = ("iteration", "qd_score", "coverage", "elites", "best", "batch_best
 ARCHIVE_FORMAT = "mjregen-archive-1"
 
 
-class QDTask(Protocol):
-    """What a MAP-Elites run evaluates: genomes of an NCA -> fitness and grown robots."""
+class QDTask(Task, Protocol):
+    """What a MAP-Elites run evaluates: an evolution's task (genomes of an NCA -> fitness
+    and grown robots) that also names its lowest fitness."""
 
-    nca: NCAConfig
     lowest_fitness: float  # below every fitness the task gives (the QD score's offset)
-
-    def evaluate(self, genomes: np.ndarray, backend: Backend) -> PopulationEvaluation: ...
 
 
 @dataclass(frozen=True)

@@ -20,7 +20,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from mjregen.grid import Material
+from mjregen.grid import Material, count_pieces
 
 
 @dataclass(frozen=True)
@@ -48,8 +48,13 @@ def _muscle(grid: np.ndarray) -> float:
     return muscles / voxels if voxels else 0.0
 
 
+def _filled_layers(grid: np.ndarray) -> np.ndarray:
+    """z-indices of the layers that hold a voxel, ascending."""
+    return np.flatnonzero(np.any(grid != 0, axis=tuple(range(grid.ndim - 1))))
+
+
 def _height(grid: np.ndarray) -> float:
-    layers = np.flatnonzero(np.any(grid != 0, axis=tuple(range(grid.ndim - 1))))
+    layers = _filled_layers(grid)
     return float(layers[-1] - layers[0] + 1) if len(layers) else 0.0
 
 
@@ -60,33 +65,14 @@ def _footprint(grid: np.ndarray) -> float:
 
 def _lowest_layer(grid: np.ndarray) -> np.ndarray:
     """bool ``(X, Y)`` (2D: ``(X,)``): the filled cells of the robot's lowest filled layer."""
-    layers = np.flatnonzero(np.any(grid != 0, axis=tuple(range(grid.ndim - 1))))
+    layers = _filled_layers(grid)
     if not len(layers):
         return np.zeros(grid.shape[:-1], dtype=bool)
     return grid[..., layers[0]] != 0
 
 
 def _feet(grid: np.ndarray) -> float:
-    layer = _lowest_layer(grid)
-    label = np.zeros(layer.shape, dtype=np.int32)
-    patches = 0
-    for start in zip(*np.nonzero(layer)):
-        if label[start]:
-            continue
-        patches += 1
-        label[start] = patches
-        stack = [start]
-        while stack:
-            cell = stack.pop()
-            for axis in range(layer.ndim):
-                for step in (-1, 1):
-                    near = list(cell)
-                    near[axis] += step
-                    near = tuple(near)
-                    if 0 <= near[axis] < layer.shape[axis] and layer[near] and not label[near]:
-                        label[near] = patches
-                        stack.append(near)
-    return float(patches)
+    return float(count_pieces(_lowest_layer(grid)))
 
 
 def _most_patches(shape: tuple[int, ...]) -> float:

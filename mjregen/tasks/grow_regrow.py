@@ -46,12 +46,17 @@ def cut_condition(cut: str, grid_size: int) -> str:
     return f"x < {grid_size // 2}" if cut == PAPER_CUT else cut
 
 
+def damaged_states(config: NCAConfig, growth: Growth, cut: str = PAPER_CUT) -> CAState:
+    """The grown states of a population cut by `cut` (a half-space condition such as
+    ``"z > 4"``, or "paper")."""
+    return cut_half_space(grown_states(growth), cut_condition(cut, config.grid_size))
+
+
 def regrow_after_cut(config: NCAConfig, genomes: np.ndarray, growth: Growth,
                      cut: str = PAPER_CUT) -> np.ndarray:
-    """int8 ``(P, *grid)``: each genome's robot regrown by its own NCA after `cut` (a
-    half-space condition such as ``"z > 4"``, or "paper") of its grown state."""
-    damaged = cut_half_space(grown_states(growth), cut_condition(cut, config.grid_size))
-    return grow(config, genomes, start=damaged).grids
+    """int8 ``(P, *grid)``: each genome's robot regrown by its own NCA after `cut` of its
+    grown state (`damaged_states`)."""
+    return grow(config, genomes, start=damaged_states(config, growth, cut)).grids
 
 
 def own_similarity(regrown: np.ndarray, grown: np.ndarray) -> np.ndarray:
@@ -109,8 +114,8 @@ class GrowRegrowTask:
 
     def evaluate(self, genomes: np.ndarray, backend: Backend) -> PopulationEvaluation:
         """Score a population of genomes ``(P, G)``: walk, cut, regrow."""
-        walked = self._locomotion.evaluate(genomes, backend)
         growth = grow(self.nca, genomes)
+        walked = self._locomotion.evaluate_grids(growth.grids, backend)
         regrown = regrow_after_cut(self.nca, genomes, growth, self.cut)
         score = own_similarity(regrown, growth.grids)
         cells = int(np.prod(self.nca.grid_shape))

@@ -74,7 +74,10 @@ class LocomotionTask:
 
     def evaluate(self, genomes: np.ndarray, backend: Backend) -> PopulationEvaluation:
         """Score a population of genomes ``(P, G)``."""
-        grids = grow(self.nca, genomes).grids
+        return self.evaluate_grids(grow(self.nca, genomes).grids, backend)
+
+    def evaluate_grids(self, grids: np.ndarray, backend: Backend) -> PopulationEvaluation:
+        """Score the robots the genomes grew, int8 ``(P, *grid)``."""
         population, dim = len(grids), self.nca.dim
         distinct: dict[bytes, int] = {}
         owner = np.array([distinct.setdefault(g.tobytes(), len(distinct)) for g in grids])
