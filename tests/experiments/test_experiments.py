@@ -3,6 +3,7 @@ the report, on smoke-scale runs (2D evolutions of a few seconds; hand-made 3D ru
 
 import importlib.util
 import json
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -33,8 +34,8 @@ def script(name: str):
     return module
 
 
-paper_experiments, ship_assets, results_report = (
-    script(n) for n in ("paper_experiments", "ship_assets", "results_report"))
+paper_experiments, ship_assets, results_report, snapshot_runs = (
+    script(n) for n in ("paper_experiments", "ship_assets", "results_report", "snapshot_runs"))
 
 
 def test_conditions_and_paper_scale_are_the_papers():
@@ -103,6 +104,45 @@ def test_tiny_run_resumes_and_matches_its_printed_command(tmp_path):
     other = ex.evolution_jobs(SMOKE, root=tmp_path, conditions=["2d_ff"], runs=1, population=6)[0]
     with pytest.raises(RunFolderError, match="different settings"):
         ex.run_evolution_job(other, progress=False)
+
+
+def test_a_snapshot_of_an_unfinished_run_resumes_to_the_uninterrupted_run(tmp_path):
+    from mjregen.search.backends import SerialBackend
+    from mjregen.search.runs import run_evolution
+
+    class Killed(Exception):
+        pass
+
+    def kill(row):
+        if row["generation"] == 1:
+            raise Killed
+
+    job, = ex.evolution_jobs(SMOKE, root=tmp_path / "killed", conditions=["2d_ff"], runs=1,
+                              generations=4)
+    task = LocomotionTask(nca=job.condition.nca, physics=job.physics, duration=job.duration)
+    with pytest.raises(Killed):
+        run_evolution(task, job.ga, seed=job.seed, out=job.out, backend=SerialBackend(),
+                      task_config=task.to_config(), progress=False, on_generation=kill)
+    saved = snapshot_runs.snapshot(job.out, tmp_path / "resume")
+    assert saved == tmp_path / "resume" / "2d_ff" / "seed_0"
+    kept = sorted(p.name for p in (saved / "best").iterdir())
+    best_npz = ex.read_run(job.out).best_files()[0].name
+    assert kept == sorted(["gen_0000.npy", "gen_0001.npy", best_npz])  # one NCA: the best's
+    # the snapshot, copied to a fresh machine's results folder, resumes to the uninterrupted run
+    fresh, = ex.evolution_jobs(SMOKE, root=tmp_path / "fresh", conditions=["2d_ff"], runs=1,
+                              generations=4)
+    fresh.out.parent.mkdir(parents=True)
+    shutil.copytree(saved, fresh.out)
+    resumed = ex.run_evolution_job(fresh, progress=False)
+    whole, = ex.evolution_jobs(SMOKE, root=tmp_path / "whole", conditions=["2d_ff"], runs=1,
+                              generations=4)
+    uninterrupted = ex.run_evolution_job(whole, progress=False)
+    assert np.array_equal(ex.read_run(fresh.out).best, ex.read_run(whole.out).best)
+    assert np.array_equal(resumed.best_genome, uninterrupted.best_genome)
+    with pytest.raises(ValueError, match="finished"):
+        snapshot_runs.snapshot(fresh.out, tmp_path / "resume")
+    with pytest.raises(FileNotFoundError, match="config.json"):
+        snapshot_runs.snapshot(tmp_path / "nothing", tmp_path / "resume")
 
 
 @pytest.fixture(scope="module")
