@@ -41,11 +41,15 @@ import sys
 from collections.abc import Sequence
 from datetime import UTC, datetime
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from mjregen.errors import MjregenError
 from mjregen.experiments import paper as ex
+
+if TYPE_CHECKING:
+    from mjregen.search.stats import CurveStats
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER_GLOB = Path(os.environ.get("MJREGEN_PAPER", "paper"))  # a folder with the paper's LaTeX
@@ -127,6 +131,23 @@ def _metric_sum(run: ex.RunInfo, column: str) -> int:
 
     with (run.path / "metrics.csv").open() as handle:
         return sum(int(float(r[column])) for r in csv.DictReader(handle))
+
+
+def _network_comparison(dim: int, ff: CurveStats, lstm: CurveStats) -> str:
+    """One sentence comparing feed-forward and LSTM best-fitness curves at the last generation
+    both reached; with fewer than two runs on either side it says there is no comparison."""
+    g = min(len(ff.mean), len(lstm.mean)) - 1
+    paper = "LSTM slightly better" if dim == 2 else "feed-forward better"
+    text = (f"{dim}D, mean best fitness at generation {g} (the last both reached): feed-forward "
+            f"{ff.mean[g]:.4g} (n={ff.n_runs}) vs LSTM {lstm.mean[g]:.4g} (n={lstm.n_runs})")
+    if min(ff.n_runs, lstm.n_runs) < 2:
+        return (f"{text}; fewer than two runs on a side: no confidence interval, no comparison "
+                f"of the networks yet; the paper found {paper}.")
+    overlap = not (ff.low[g] > lstm.high[g] or lstm.low[g] > ff.high[g])
+    better = "feed-forward" if ff.mean[g] > lstm.mean[g] else "LSTM"
+    return (f"{text}: {better} higher, 95 % CIs "
+            f"{'overlap (no clear difference at this scale)' if overlap else 'do not overlap'}; "
+            f"the paper found {paper}.")
 
 
 class Report:
@@ -269,15 +290,7 @@ class Report:
                          f"{unstable} / {failed} |")
             self.add("")
             if len(groups) == 2:
-                a, b = (self.stats[n] for n in names)
-                overlap = not (a.low[-1] > b.high[-1] or b.low[-1] > a.high[-1])
-                better = "feed-forward" if a.mean[-1] > b.mean[-1] else "LSTM"
-                paper = "LSTM slightly better" if dim == 2 else "feed-forward better"
-                self.facts.append(
-                    f"{dim}D: final mean best fitness feed-forward {a.mean[-1]:.4g} vs LSTM "
-                    f"{b.mean[-1]:.4g}: {better} higher, 95 % CIs "
-                    f"{'overlap (no clear difference at this scale)' if overlap else 'do not overlap'}; "
-                    f"the paper found {paper}.")
+                self.facts.append(_network_comparison(dim, *(self.stats[n] for n in names)))
 
     def shipped(self) -> list[tuple[str, Path, Path | None]]:
         """Shipped NCAs: table and growth figures; returns (name, robot file, nca file) to draw."""

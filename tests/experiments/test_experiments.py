@@ -263,6 +263,8 @@ def test_results_report_writes_every_section(results, tmp_path, monkeypatch):
     assert "| 3d_lstm | 100 × 300 × 24 | not run |" in text
     assert "| Tripod (feed forward) | 99 % (728/729) | 44.5 | 1.63 (3.6 %) | 20.3 (45 %) |" in text
     assert "walker_1 (feed-forward)" in text
+    # 2D: two feed-forward runs, one LSTM run: no comparison of the networks is claimed
+    assert "fewer than two runs on a side: no confidence interval" in text
     figures = out.parent / "results"
     for name in ("fitness_2d.png", "fitness_3d.png", "growth_walker_2d_ff.png",
                  "gallery_walker_2d_ff.png"):
@@ -273,6 +275,21 @@ def test_results_report_writes_every_section(results, tmp_path, monkeypatch):
     assert copy[2] | {} == {"robot": "Multiped", "network": "recurrent", "similarity_percent": 91.0,
                             "similarity": 667, "grid_cells": 729, "original": 42.7, "damaged": 5.36,
                             "damaged_percent": 12.0, "regrown": 9.6, "regrown_percent": 22.0}
+
+
+def test_the_network_comparison_needs_two_runs_a_side_and_a_common_generation():
+    from mjregen.search.stats import CurveStats
+
+    def curves(mean, half, n):
+        mean = np.asarray(mean, dtype=float)
+        return CurveStats(np.arange(len(mean)), mean, mean - half, mean + half, n)
+
+    ff, lstm = curves([1, 2, 30, 40], 1.0, 3), curves([1, 5], 1.0, 3)
+    text = results_report._network_comparison(3, ff, lstm)  # at generation 1, where LSTM leads
+    assert "generation 1" in text and "LSTM higher" in text and "do not overlap" in text
+    assert "overlap (no clear" in results_report._network_comparison(3, ff, curves([1, 2.5], 1.0, 3))
+    alone = results_report._network_comparison(3, ff, curves([1, 5], 0.0, 1))
+    assert "no comparison" in alone and "higher" not in alone
 
 
 def test_results_report_on_nothing_says_not_run(tmp_path):
