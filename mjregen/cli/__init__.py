@@ -24,11 +24,16 @@ from mjregen.cli import evolution, regeneration, robots  # noqa: E402
 from mjregen.errors import MjregenError, OutputExistsError  # noqa: E402
 
 Handler = Callable[[argparse.Namespace], int]
-COMMANDS = (robots.add_grow, robots.add_show, robots.add_walk, robots.add_export, robots.add_render,
-            evolution.add_evolve, evolution.add_evolve_stats, regeneration.add_regen)
+COMMANDS = {"grow": robots.add_grow, "show": robots.add_show, "walk": robots.add_walk,
+            "export": robots.add_export, "render": robots.add_render,
+            "evolve": evolution.add_evolve, "evolve-stats": evolution.add_evolve_stats,
+            "regen": regeneration.add_regen}
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The command line's parser: every subcommand, or only `command` (a name of
+    `COMMANDS`: what `main` builds when the first word names one, since building the
+    others' arguments costs start-up time a command does not use)."""
     parser = argparse.ArgumentParser(
         prog="mjregen",
         description="Grow soft voxel robots with neural cellular automata, walk them in MuJoCo, "
@@ -36,14 +41,16 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"mjregen {__version__}")
     subparsers = parser.add_subparsers(title="commands", metavar="COMMAND", required=True)
-    for add in COMMANDS:
-        add(subparsers)
+    for name, add in COMMANDS.items():
+        if command is None or name == command:
+            add(subparsers)
     return parser
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     words = list(sys.argv[1:] if argv is None else argv)
-    args = build_parser().parse_args(words)
+    command = words[0] if words and words[0] in COMMANDS else None
+    args = build_parser(command).parse_args(words)
     handler: Handler = args.handler
     main_thread = threading.current_thread() is threading.main_thread()
     restore = interrupt.install() if main_thread else (lambda: None)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import os
 import subprocess
 import sys
@@ -85,6 +86,22 @@ def test_help_texts_have_no_literal_percent_signs_and_every_option_is_explained(
         for action in sub._actions:
             if action.option_strings and action.dest != "help":
                 assert action.help, f"mjregen {name} {action.option_strings[0]} has no help"
+
+
+def test_a_parser_of_one_command_parses_that_command_as_the_whole_parser_does():
+    from mjregen.cli import COMMANDS, build_parser
+
+    def subcommands(parser):
+        return next(a for a in parser._actions
+                    if isinstance(a, argparse._SubParsersAction)).choices
+
+    assert list(subcommands(build_parser())) == list(COMMANDS)
+    for argv in (["walk", "r.npy", "--json", "--duration", "0.1"],
+                 ["evolve", "--dim", "2", "--pop", "4", "--out", "o"],
+                 ["regen", "--paper", "tripod", "--gens", "3"], ["evolve-stats", "--group", "ff", "a", "--out", "s"]):
+        alone = build_parser(argv[0])
+        assert list(subcommands(alone)) == [argv[0]]
+        assert vars(alone.parse_args(argv)) == vars(build_parser().parse_args(argv))
 
 
 def test_percent_of_a_distance_that_is_no_walk_is_not_applicable():
