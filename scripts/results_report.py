@@ -138,7 +138,8 @@ def _network_comparison(dim: int, ff: CurveStats, lstm: CurveStats) -> str:
     both reached; with fewer than two runs on either side it says there is no comparison."""
     g = min(len(ff.mean), len(lstm.mean)) - 1
     paper = "LSTM slightly better" if dim == 2 else "feed-forward better"
-    text = (f"{dim}D, mean best fitness at generation {g} (the last both reached): feed-forward "
+    text = (f"{dim}D, mean best fitness at generation {int(ff.generations[g])} (the last both "
+            f"reached): feed-forward "
             f"{ff.mean[g]:.4g} (n={ff.n_runs}) vs LSTM {lstm.mean[g]:.4g} (n={lstm.n_runs})")
     if min(ff.n_runs, lstm.n_runs) < 2:
         return (f"{text}; fewer than two runs on a side: no confidence interval, no comparison "
