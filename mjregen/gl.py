@@ -24,10 +24,12 @@ def requested_backend() -> str:
 
 def missing_library(backend: str) -> str | None:
     """Why `backend` cannot load (its system library is not installed), or None."""
-    import ctypes.util  # only when a backend is named: its import costs every command
-
     library = LIBRARIES.get(backend)
-    if library is not None and ctypes.util.find_library(library) is None:
+    if library is None:
+        return None
+    import ctypes.util  # only when a backend is named: its import and search cost time
+
+    if ctypes.util.find_library(library) is None:
         return (f"MUJOCO_GL={backend}, but lib{library} is not installed "
                 f"({INSTALL_HINT[backend]}; or unset MUJOCO_GL to choose automatically)")
     return None

@@ -90,10 +90,11 @@ def _prepare_gl(args: argparse.Namespace) -> None:
     if callable(renders):  # the command decides from its arguments
         renders = renders(args)
     renders = renders and not getattr(args, "no_video", False)
-    problem = gl.missing_library(gl.requested_backend())
-    if problem and renders:
-        raise MjregenError(problem)
-    if not renders and "mujoco" not in sys.modules:
+    if renders:
+        problem = gl.missing_library(gl.requested_backend())
+        if problem:
+            raise MjregenError(problem)
+    elif "mujoco" not in sys.modules:
         gl.disable_for_work_without_rendering()
 
 

@@ -161,6 +161,22 @@ def test_missing_opengl_library_stops_only_rendering(tmp_path, monkeypatch):
     assert render.stderr.count("\n") == 1
 
 
+def test_a_command_that_does_not_render_searches_for_no_opengl_library(tmp_path, monkeypatch,
+                                                                       capsys):
+    """Searching for a library (ctypes.util.find_library runs ldconfig) costs start-up time
+    that walking does not need, whatever MUJOCO_GL names."""
+    from mjregen import gl
+
+    def search(backend: str) -> None:
+        raise AssertionError(f"searched for the library of {backend!r}")
+
+    monkeypatch.setattr(gl, "missing_library", search)
+    monkeypatch.setenv("MUJOCO_GL", "egl")
+    Robot(BLOCK).save(tmp_path / "robot.npy")
+    assert main(["walk", str(tmp_path / "robot.npy"), "--duration", "0.01", "--json"]) == 0
+    assert '"distance"' in capsys.readouterr().out
+
+
 def test_broken_pipe_is_quiet(tmp_path):
     Robot(np.pad(np.ones((7, 7, 7), dtype=np.int8), 1)).save(tmp_path / "robot.npy")
     done = subprocess.run(f"'{sys.executable}' -m mjregen show '{tmp_path / 'robot.npy'}' "
