@@ -5,10 +5,13 @@ from __future__ import annotations
 import argparse
 import math
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from mjregen.errors import MjregenError
 from mjregen.grid import Material, Robot
-from mjregen.search.ga import PRESETS, GAConfig
+
+if TYPE_CHECKING:
+    from mjregen.search.ga import GAConfig
 
 
 def seed(text: str) -> int:
@@ -42,6 +45,8 @@ def material_counts(robot: Robot) -> dict[str, int]:
 
 def add_ga_arguments(parser: argparse.ArgumentParser, *, preset_help: str) -> None:
     """--preset and the GA numbers that override it."""
+    from mjregen.search.ga import PRESETS  # only for the commands that run a GA
+
     values = "; ".join(f"{name}: {config.summary()}" for name, config in sorted(PRESETS.items()))
     parser.add_argument("--preset", choices=sorted(PRESETS), help=f"{preset_help} ({values})")
     parser.add_argument("--pop", type=int,
@@ -55,6 +60,8 @@ def add_ga_arguments(parser: argparse.ArgumentParser, *, preset_help: str) -> No
 
 def ga_config(args: argparse.Namespace, default_preset: str) -> GAConfig:
     """The preset named by --preset (else `default_preset`) with the given numbers replaced."""
+    from mjregen.search.ga import PRESETS
+
     try:
         preset = PRESETS[args.preset or default_preset]
         if args.pop is not None:
