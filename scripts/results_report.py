@@ -139,8 +139,8 @@ def _network_comparison(dim: int, ff: CurveStats, lstm: CurveStats) -> str:
     g = min(len(ff.mean), len(lstm.mean)) - 1
     paper = "LSTM slightly better" if dim == 2 else "feed-forward better"
     text = (f"{dim}D, mean best fitness at generation {int(ff.generations[g])} (the last both "
-            f"reached): feed-forward "
-            f"{ff.mean[g]:.4g} (n={ff.n_runs}) vs LSTM {lstm.mean[g]:.4g} (n={lstm.n_runs})")
+            f"reached): feed-forward {ff.mean[g]:.4g} (n={ff.n_runs}) vs LSTM "
+            f"{lstm.mean[g]:.4g} (n={lstm.n_runs})")
     if min(ff.n_runs, lstm.n_runs) < 2:
         return (f"{text}; fewer than two runs on a side: no confidence interval, no comparison "
                 f"of the networks yet; the paper found {paper}.")

@@ -69,26 +69,27 @@ def test_dry_run_prints_every_command_and_runs_nothing(tmp_path, capsys):
     assert not any(tmp_path.iterdir())
 
 
-def test_tiny_run_resumes_and_matches_its_printed_command(tmp_path):
-    job, = ex.evolution_jobs(SMOKE, root=tmp_path, conditions=["2d_ff"], runs=1)
+def kill_after(job: ex.EvolutionJob, generation: int) -> None:
+    """Run `job` and stop it, through run_evolution's hook, after `generation` is saved."""
+    from mjregen.search.backends import SerialBackend
+    from mjregen.search.runs import run_evolution
 
     class Killed(Exception):
         pass
 
     def kill(row):
-        if row["generation"] == 0:
+        if row["generation"] == generation:
             raise Killed
-
-    # kill after generation 0 (through run_evolution's hook), then resume with the job
-    from mjregen.search.backends import SerialBackend
-    from mjregen.search.runs import run_evolution
-    from mjregen.tasks.locomotion import LocomotionTask
 
     task = LocomotionTask(nca=job.condition.nca, physics=job.physics, duration=job.duration)
     with pytest.raises(Killed):
         run_evolution(task, job.ga, seed=job.seed, out=job.out, backend=SerialBackend(),
-                      task_config=task.to_config(),
-                      progress=False, on_generation=kill)
+                      task_config=task.to_config(), progress=False, on_generation=kill)
+
+
+def test_tiny_run_resumes_and_matches_its_printed_command(tmp_path):
+    job, = ex.evolution_jobs(SMOKE, root=tmp_path, conditions=["2d_ff"], runs=1)
+    kill_after(job, 0)  # then resume with the job
     assert ex.read_run(job.out).generations_done == 1
     resumed = ex.run_evolution_job(job, progress=False)
     assert ex.read_run(job.out).complete
@@ -107,22 +108,9 @@ def test_tiny_run_resumes_and_matches_its_printed_command(tmp_path):
 
 
 def test_a_snapshot_of_an_unfinished_run_resumes_to_the_uninterrupted_run(tmp_path):
-    from mjregen.search.backends import SerialBackend
-    from mjregen.search.runs import run_evolution
-
-    class Killed(Exception):
-        pass
-
-    def kill(row):
-        if row["generation"] == 1:
-            raise Killed
-
     job, = ex.evolution_jobs(SMOKE, root=tmp_path / "killed", conditions=["2d_ff"], runs=1,
                               generations=4)
-    task = LocomotionTask(nca=job.condition.nca, physics=job.physics, duration=job.duration)
-    with pytest.raises(Killed):
-        run_evolution(task, job.ga, seed=job.seed, out=job.out, backend=SerialBackend(),
-                      task_config=task.to_config(), progress=False, on_generation=kill)
+    kill_after(job, 1)
     saved = snapshot_runs.snapshot(job.out, tmp_path / "resume")
     assert saved == tmp_path / "resume" / "2d_ff" / "seed_0"
     kept = sorted(p.name for p in (saved / "best").iterdir())
