@@ -1,12 +1,16 @@
 #!/usr/bin/env python3
-"""Copy what a resume needs of unfinished GA run folders into resume/results/ (tracked in git).
+"""Keep the records of GA run folders in records/results/ (tracked in git).
 
-What is copied of a run ``runs/results/<condition>/seed_<n>``: config.json, checkpoint.npz,
-metrics.csv, every generation's best robot (best/gen_NNNN.npy) and the best generation's NCA
-(best/gen_NNNN.npz). The copy replaces the run's earlier snapshot. A finished run is refused:
-ship its results instead (scripts/ship_assets.py).
+A record holds what a resume needs of an unfinished run and what the results report needs of
+a finished one.
 
-Example: python scripts/snapshot_runs.py runs/results/3d_lstm/seed_0
+What is copied of a run ``runs/results/<condition>/seed_<n>``: config.json, metrics.csv,
+every generation's best robot (best/gen_NNNN.npy), the best generation's NCA
+(best/gen_NNNN.npz) and, while the run is unfinished, checkpoint.npz. A finished run's
+record has no checkpoint: resuming it returns its summary at once
+(`mjregen.search.runs.run_evolution`). The copy replaces the run's earlier record.
+
+Example: python scripts/snapshot_runs.py runs/results/3d_lstm/seed_0 runs/results/3d_ff/seed_0
 """
 
 from __future__ import annotations
@@ -19,27 +23,29 @@ from pathlib import Path
 from mjregen.experiments.paper import read_run
 
 ROOT = Path(__file__).resolve().parents[1]
-DESTINATION = ROOT / "resume" / "results"
+DESTINATION = ROOT / "records" / "results"
 
 
 def snapshot(run: Path, destination: Path = DESTINATION) -> Path:
-    """Copy the resumable state of `run` to destination/<condition>/<seed folder>; returns it.
+    """Copy the record of `run` to destination/<condition>/<seed folder>; returns it.
 
     Raises:
-      FileNotFoundError: `run` has no config.json or no checkpoint.npz.
-      ValueError: the run is finished.
+      FileNotFoundError: `run` has no config.json, an unfinished run has no checkpoint.npz,
+        or a finished run has no generation done.
     """
     info = read_run(run)
-    if not (run / "checkpoint.npz").is_file():
-        raise FileNotFoundError(f"{run} has no checkpoint.npz: nothing to resume")
-    if info.complete:
-        raise ValueError(f"{run} is finished ({info.generations_done} generations): ship it "
-                         "with scripts/ship_assets.py instead of keeping its state")
+    if not info.generations_done:
+        raise FileNotFoundError(f"{run} has no generation in metrics.csv: nothing to keep")
+    names = ["config.json", "metrics.csv"]
+    if not info.complete:
+        if not (run / "checkpoint.npz").is_file():
+            raise FileNotFoundError(f"{run} has no checkpoint.npz: nothing to resume")
+        names.append("checkpoint.npz")
     target = destination / run.parent.name / run.name
     staging = target.with_name(target.name + ".partial")
     shutil.rmtree(staging, ignore_errors=True)
     (staging / "best").mkdir(parents=True)
-    for name in ("config.json", "checkpoint.npz", "metrics.csv"):
+    for name in names:
         shutil.copy2(run / name, staging / name)
     for robot in sorted((run / "best").glob("gen_*.npy")):
         shutil.copy2(robot, staging / "best" / robot.name)
@@ -52,16 +58,17 @@ def snapshot(run: Path, destination: Path = DESTINATION) -> Path:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("runs", nargs="+", type=Path, help="run folders to snapshot")
+    parser.add_argument("runs", nargs="+", type=Path, help="run folders to keep")
     args = parser.parse_args(argv)
     for run in args.runs:
         try:
             target = snapshot(run)
-        except (FileNotFoundError, ValueError) as error:
+        except FileNotFoundError as error:
             print(f"error: {error}", file=sys.stderr)
             return 2
         info = read_run(target)
-        print(f"{run} -> {target.relative_to(ROOT)}: {info.generations_done} of "
+        state = "finished" if info.complete else "resumable"
+        print(f"{run} -> {target.relative_to(ROOT)} ({state}): {info.generations_done} of "
               f"{info.generations_planned} generations, best {info.best_fitness:.4g} "
               f"(generation {info.best_generation})")
     return 0

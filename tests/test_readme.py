@@ -17,7 +17,7 @@ NOT_RUN = {
     "scripts/ship_assets.py": "replaces the project's shipped assets",
     "scripts/ship_regrowth.py": "replaces the project's shipped regrowth NCAs",
     "scripts/results_report.py": "rewrites the project's docs/results.md",
-    "scripts/snapshot_runs.py": "replaces the project's resume/ state of a run",
+    "scripts/snapshot_runs.py": "replaces the project's record of a run in records/",
 }
 # the scale: populations, generations, walks and videos made small
 SMALLER = [(r"--pop \d+", "--pop 4"), (r"--gens \d+", "--gens 1"),

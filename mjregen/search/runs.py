@@ -12,7 +12,8 @@ The folder holds
                   each generation (only when some failed)
 A killed run continues from `checkpoint.npz` with ``resume=True`` and produces exactly the
 results of an uninterrupted run: evaluation is deterministic and the GA's random state is
-restored. A folder holding a run is never overwritten without ``resume`` or ``force``, and
+restored. A finished run kept without its checkpoint (a record: config.json, metrics.csv
+and best/) is left alone on resume: its summary comes from best/. A folder holding a run is never overwritten without ``resume`` or ``force``, and
 ``force`` only ever deletes a folder that holds an mjregen run. A generation in which every
 evaluation failed stops the run (`RunFailedError`): its results would be meaningless.
 """
@@ -34,7 +35,7 @@ from mjregen import __version__, interrupt
 from mjregen.errors import CheckpointError
 from mjregen.fileio import atomic_open
 from mjregen.grid import Robot
-from mjregen.growth.checkpoint import save_nca
+from mjregen.growth.checkpoint import load_nca, save_nca
 from mjregen.growth.nca import NCA, NCAConfig
 from mjregen.plotting import line_axes, save_png
 from mjregen.search.backends import Backend
@@ -132,6 +133,33 @@ def _save_best(stem: Path, config: NCAConfig, genome: np.ndarray, result: Popula
     Robot(result.grids[top]).save(stem.with_suffix(".npy"), overwrite=True)
 
 
+def _finished_record(out: Path, generations: int) -> RunSummary | None:
+    """The summary of a run in `out` whose metrics.csv lists all `generations` (None when it
+    lists fewer), read from best/ without its checkpoint: the best genome is the first
+    generation's best NCA with the highest fitness.
+
+    Raises:
+      RunFolderError: a best NCA file it needs is missing or unreadable.
+    """
+    rows = read_metrics(out / "metrics.csv", "generation", generations)
+    if not rows or len(rows) < generations:
+        return None
+    listed = np.array([float(r["best"]) for r in rows])
+    best: tuple[float, int, np.ndarray] | None = None
+    for generation in np.flatnonzero(listed == listed.max()):  # metrics.csv rounds to 6 digits
+        path = out / "best" / f"gen_{generation:04d}.npz"
+        try:
+            nca, metadata = load_nca(path)
+        except (FileNotFoundError, CheckpointError) as error:
+            raise RunFolderError(f"{out} is finished but its best NCA cannot be read: "
+                                 f"{error}") from None
+        if best is None or metadata["fitness"] > best[0]:
+            best = (float(metadata["fitness"]), int(generation), nca.genome)
+    assert best is not None  # rows is not empty
+    return RunSummary(out=out, generations=generations, best_fitness=best[0],
+                      best_generation=best[1], best_genome=np.asarray(best[2], dtype=np.float32))
+
+
 def _metrics_row(result: PopulationEvaluation, *, generation: int, wall: float,
                  elapsed: float) -> dict:
     """A generation's metrics.csv row (`METRICS`)."""
@@ -186,6 +214,9 @@ def run_evolution(
         "mjregen_version": __version__, "created": datetime.now(timezone.utc).isoformat(),
     }
     resuming = prepare_folder(out, config, resume=resume, force=force)
+    finished = _finished_record(out, ga_config.generations) if resume and not resuming else None
+    if finished is not None:
+        return finished
     if resuming:
         ga, best = _checkpoint_load(out / "checkpoint.npz")
     else:

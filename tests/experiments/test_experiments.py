@@ -1,6 +1,7 @@
 """The results tooling (#9): experiment definitions, the rerun script, shipping assets and
 the report, on smoke-scale runs (2D evolutions of a few seconds; hand-made 3D run folders)."""
 
+import dataclasses
 import importlib.util
 import json
 import shutil
@@ -111,8 +112,9 @@ def test_a_snapshot_of_an_unfinished_run_resumes_to_the_uninterrupted_run(tmp_pa
     job, = ex.evolution_jobs(SMOKE, root=tmp_path / "killed", conditions=["2d_ff"], runs=1,
                               generations=4)
     kill_after(job, 1)
-    saved = snapshot_runs.snapshot(job.out, tmp_path / "resume")
-    assert saved == tmp_path / "resume" / "2d_ff" / "seed_0"
+    saved = snapshot_runs.snapshot(job.out, tmp_path / "records")
+    assert saved == tmp_path / "records" / "2d_ff" / "seed_0"
+    assert (saved / "checkpoint.npz").is_file()
     kept = sorted(p.name for p in (saved / "best").iterdir())
     best_npz = ex.read_run(job.out).best_files()[0].name
     assert kept == sorted(["gen_0000.npy", "gen_0001.npy", best_npz])  # one NCA: the best's
@@ -127,10 +129,32 @@ def test_a_snapshot_of_an_unfinished_run_resumes_to_the_uninterrupted_run(tmp_pa
     uninterrupted = ex.run_evolution_job(whole, progress=False)
     assert np.array_equal(ex.read_run(fresh.out).best, ex.read_run(whole.out).best)
     assert np.array_equal(resumed.best_genome, uninterrupted.best_genome)
-    with pytest.raises(ValueError, match="finished"):
-        snapshot_runs.snapshot(fresh.out, tmp_path / "resume")
+    # a finished run's record has no checkpoint, and resuming it returns its summary at once
+    record = snapshot_runs.snapshot(fresh.out, tmp_path / "records")
+    assert not (record / "checkpoint.npz").exists()
+    again, = ex.evolution_jobs(SMOKE, root=tmp_path / "again", conditions=["2d_ff"], runs=1,
+                               generations=4)
+    again.out.parent.mkdir(parents=True)
+    shutil.copytree(record, again.out)
+    before = (again.out / "metrics.csv").read_text()
+    summary = ex.run_evolution_job(again, progress=False)
+    assert (again.out / "metrics.csv").read_text() == before  # nothing evaluated again
+    assert (summary.best_fitness, summary.best_generation) == (
+        uninterrupted.best_fitness, uninterrupted.best_generation)
+    assert np.array_equal(summary.best_genome, uninterrupted.best_genome)
     with pytest.raises(FileNotFoundError, match="config.json"):
-        snapshot_runs.snapshot(tmp_path / "nothing", tmp_path / "resume")
+        snapshot_runs.snapshot(tmp_path / "nothing", tmp_path / "records")
+
+
+def test_a_finished_record_without_its_best_nca_is_a_clear_error(tmp_path):
+    job, = ex.evolution_jobs(SMOKE, root=tmp_path / "runs", conditions=["2d_ff"], runs=1,
+                             generations=2)
+    ex.run_evolution_job(job, progress=False)
+    record = snapshot_runs.snapshot(job.out, tmp_path / "records")
+    nca = ex.read_run(record).best_files()[0]
+    nca.unlink()
+    with pytest.raises(RunFolderError, match=f"best NCA cannot be read.*{nca.name}"):
+        ex.run_evolution_job(dataclasses.replace(job, out=record), progress=False)
 
 
 @pytest.fixture(scope="module")
