@@ -304,6 +304,30 @@ def test_the_network_comparison_needs_two_runs_a_side_and_a_common_generation():
     assert "no comparison" in alone and "higher" not in alone
 
 
+def test_the_records_of_a_results_folder_regenerate_its_report(results, tmp_path):
+    records = tmp_path / "records"
+    for run in sorted(results.glob("*/seed_*")):
+        snapshot_runs.snapshot(run, records)
+    snapshot_runs.snapshot_walkers(wk.walkers_folder(results), records)
+    restored = tmp_path / "restored"
+    shutil.copytree(records, restored)
+    assert not list(restored.rglob("checkpoint.npz"))  # every run is finished
+    # the walkers' paths point into the results folder they were picked in
+    index = restored / "walkers" / "walkers.json"
+    index.write_text(index.read_text().replace(str(results), str(restored)))
+    job, = regrowth.regen_jobs(SMOKE, wk.load_or_pick_walkers(restored)[:1], root=restored)
+    assert regrowth.run_regen_job(job, progress=False) is None  # a finished record
+    reports = []
+    for root in (results, restored):
+        out = tmp_path / root.name / "results.md"
+        assert results_report.main(["--root", str(root), "--assets", str(tmp_path / "none"),
+                                    "--out", str(out), "--no-render"]) == 0
+        text = out.read_text().split("\n", 3)[3]  # past the line naming the root
+        reports.append(text.replace(str(out.parent), "OUT").replace(str(root), "ROOT"))
+    assert "walker_1 (feed-forward)" in reports[1]
+    assert reports[1] == reports[0]
+
+
 def test_results_report_on_nothing_says_not_run(tmp_path):
     out = tmp_path / "results.md"
     assert results_report.main(["--root", str(tmp_path / "none"), "--assets", str(tmp_path),
