@@ -203,8 +203,9 @@ class Report:
 
         self.add("## Settings: what was run, against the paper", "",
                  "| condition | paper: pop × gens × runs | here: pop × gens (finished) × runs | "
-                 "evaluations here / paper | truncation, elites, σ here (paper) | scale | evaluation |",
-                 "|---|---|---|---|---|---|---|")
+                 "evaluations here / paper | truncation, elites, σ here (paper) | scale | evaluation "
+                 "| wall time |",
+                 "|---|---|---|---|---|---|---|---|")
         for name, condition in ex.CONDITIONS.items():
             paper = condition.paper_ga
             paper_evals = paper.population * paper.generations * condition.paper_runs
@@ -212,7 +213,7 @@ class Report:
             if not runs:
                 self.add(f"| {name} | {paper.population} × {paper.generations} × "
                          f"{condition.paper_runs} | not run | – | – ({paper.truncation}, "
-                         f"{paper.elites}, {paper.sigma:g}) | – | – |")
+                         f"{paper.elites}, {paper.sigma:g}) | – | – | – |")
                 continue
             ga = runs[0].config["ga"]
             done = sorted({r.generations_done for r in runs})
@@ -227,6 +228,7 @@ class Report:
             timing = (f"settle {fmt(settle_s)} s + walk {fmt(walk_s)} s"
                       + (" (the paper's)" if same else ""))
             stored = Physics.from_dict(physics) if isinstance(physics, dict) and physics else None
+            hours = f"{sum(r.elapsed for r in runs) / 3600:.2g}"
             if stored == Physics().replace(settle_time=settle):
                 default = "today's default physics (= `paper_physics()`)"
             elif stored == paper_physics().replace(settle_time=settle,
@@ -239,14 +241,16 @@ class Report:
                      f"{evals} / {paper_evals} ({100 * evals / paper_evals:.2g} %) | "
                      f"{ga['truncation']}, {ga['elites']}, {ga['sigma']:g} ({paper.truncation}, "
                      f"{paper.elites}, {paper.sigma:g}) | {ex.scale_of(runs[0].config)} | "
-                     f"{timing}; {default} |")
+                     f"{timing}; {default} | {hours} h |")
             self.facts.append(f"{name}: {evals} evaluations, {100 * evals / paper_evals:.2g} % of "
-                              f"the paper's {paper_evals}.")
+                              f"the paper's {paper_evals}, in {hours} h of wall time.")
         self.add("", "The paper's evaluation: 2D 0.25 s of walking (10 cycles at 40 Hz), 3D 0.5 s "
                  "(20 cycles), after our settle of 1.0 s (2D) / 0.05 s (3D); 3D fitness = "
-                 "distance − 0.0583 × voxels. Physics: as the last column says, stored in each "
+                 "distance − 0.0583 × voxels. Physics: as the evaluation column says, stored in each "
                  "run's config.json (docs/fidelity.md compares it with the paper's engine). Truncation "
-                 "and elites keep the paper's share of the population (20 %; 2D: one elite).", "")
+                 "and elites keep the paper's share of the population (20 %; 2D: one elite). Wall "
+                 "time: the generations' own, summed over the runs (metrics.csv), on the machine "
+                 "each ran on.", "")
 
     def curves(self) -> None:
         from mjregen.search.stats import bootstrap_curves, plot_panels

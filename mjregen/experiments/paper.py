@@ -258,6 +258,8 @@ class RunInfo:
       best: per-generation best fitness ``(generations_done,)``.
       best_fitness: highest best fitness (-inf if no generation is done).
       best_generation: first generation that reached it (-1 if none).
+      elapsed: s of wall time its finished generations took (metrics.csv's last ``elapsed``;
+        0 if none).
     """
 
     path: Path
@@ -269,6 +271,7 @@ class RunInfo:
     best: np.ndarray = field(repr=False)
     best_fitness: float
     best_generation: int
+    elapsed: float
 
     @property
     def complete(self) -> bool:
@@ -298,7 +301,7 @@ def read_run(path: str | Path) -> RunInfo:
     return RunInfo(path=path, condition=path.parent.name, seed=int(config["seed"]), config=config,
                    generations_done=len(rows), generations_planned=int(config["ga"]["generations"]),
                    best=best, best_fitness=float(best[top]) if len(best) else -math.inf,
-                   best_generation=top)
+                   best_generation=top, elapsed=float(rows[-1]["elapsed"]) if rows else 0.0)
 
 
 def list_runs(root: str | Path = DEFAULT_ROOT) -> dict[str, list[RunInfo]]:

@@ -273,6 +273,10 @@ def test_results_report_writes_every_section(results, tmp_path, monkeypatch):
                     "## Shipped NCAs", "## Regeneration", "The paper's Table 1", "## Discussion"):
         assert heading in text, heading
     assert "| 3d_lstm | 100 × 300 × 24 | not run |" in text
+    hours = sum(r.elapsed for r in ex.list_runs(results)["2d_ff"]) / 3600
+    assert hours > 0
+    assert next(line for line in text.splitlines() if line.startswith("| 2d_ff | 300 ×")
+                ).endswith(f"| {hours:.2g} h |")
     assert "| Tripod (feed forward) | 99 % (728/729) | 44.5 | 1.63 (3.6 %) | 20.3 (45 %) |" in text
     assert "walker_1 (feed-forward)" in text
     # 2D: two feed-forward runs, one LSTM run: no comparison of the networks is claimed
