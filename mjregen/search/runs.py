@@ -15,8 +15,8 @@ results of an uninterrupted run: evaluation is deterministic and the GA's random
 restored. A finished run kept without its checkpoint (a record: config.json, metrics.csv
 and best/) is left alone on resume: its summary comes from best/. A folder holding a run is
 never overwritten without ``resume`` or ``force``, and ``force`` only ever deletes a folder
-that holds an mjregen run. A generation in which every
-evaluation failed stops the run (`RunFailedError`): its results would be meaningless.
+that holds an mjregen run. A generation in which every evaluation failed stops the run
+(`RunFailedError`): its results would be meaningless.
 """
 
 from __future__ import annotations
