@@ -211,7 +211,7 @@ def test_descriptions_without_a_stepper_replay_with_mj_step():
     """A format-1 description written before the native stepper (the shipped walkers'):
     the voxel pipeline with ``mj_step``, as it was evaluated."""
     manifest = Path(__file__).resolve().parents[2] / "assets" / "nca" / "manifest.json"
-    old = json.loads(manifest.read_text())["walker_3d_lstm.npz"]["evaluation"]["physics"]
+    old = json.loads(manifest.read_text())["walker_2d_lstm.npz"]["evaluation"]["physics"]
     assert "format" not in old and "stepper" not in old["scene"]
     physics = Physics.from_dict(old)
     assert physics.pipeline.name == "voxel" and physics.pipeline.stepper == "mujoco"
