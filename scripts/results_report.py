@@ -557,8 +557,8 @@ class Report:
             unfinished = ("" if run.complete else f", unfinished: {run.generations_done} of "
                           f"{run.generations_planned} generations")
             self.facts.append(
-                f"One NCA that grows and regrows ({run.condition} seed {run.seed}{unfinished}): similarity "
-                f"{report.similarity['paper']}/729 after the paper's cut (goal 700), walking "
+                f"One NCA that grows and regrows ({run.condition} seed {run.seed}{unfinished}): "
+                f"similarity {report.similarity['paper']}/729 after the paper's cut (goal 700), walking "
                 f"{ratio:.0%} as far as the best growth-only NCA of the same budget (goal 80 %).")
         self.add("", "Random cuts: " + ", ".join(f"`{k}`" for k in report.similarity
                                                  if k != "paper") + ". Distances in voxel "
