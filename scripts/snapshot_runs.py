@@ -81,7 +81,8 @@ def snapshot(run: Path, destination: Path = DESTINATION) -> Path:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("runs", nargs="+", type=Path, help="run folders (or the walkers folder) to keep")
+    parser.add_argument("runs", nargs="+", type=Path,
+                        help="run folders (or the walkers folder) to keep")
     args = parser.parse_args(argv)
     for run in args.runs:
         try:
