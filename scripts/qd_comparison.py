@@ -147,7 +147,7 @@ def report(args: argparse.Namespace) -> None:
     from mjregen.search.archive_plots import archive_heatmap
     from mjregen.search.qd_runs import read_archive
 
-    figures = ROOT_DOCS / "quality_diversity"
+    figures = args.docs / "quality_diversity"
     figures.mkdir(parents=True, exist_ok=True)
     found = {(m, s): evaluations(args.root / m / f"seed_{s}") for m in METHODS for s in args.seeds}
     farthest = max(float(np.nanmax(f["distance"])) for f in found.values())
@@ -247,8 +247,8 @@ def write_markdown(args: argparse.Namespace, rows: dict, farthest: float) -> Non
               "![MAP-Elites](quality_diversity/heatmap_map-elites.png)", "",
               "MAP-Elites' elites across the map (seed 0), in their initial pose:", "",
               "![gallery](quality_diversity/gallery_map_elites.png)", ""]
-    (ROOT_DOCS / "quality_diversity.md").write_text("\n".join(lines))
-    print(f"wrote {ROOT_DOCS / 'quality_diversity.md'}")
+    (args.docs / "quality_diversity.md").write_text("\n".join(lines))
+    print(f"wrote {args.docs / 'quality_diversity.md'}")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -260,6 +260,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--emitters", type=int, default=5, help="MAP-Elites emitters")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--report", action="store_true", help="write the report (no runs)")
+    parser.add_argument("--docs", type=Path, default=ROOT_DOCS,
+                        help="folder of the report: quality_diversity.md and its figures "
+                             "(default: the repository's docs/)")
     parser.add_argument("--quiet", action="store_true")
     args = parser.parse_args(argv)
     if args.report:

@@ -4,12 +4,15 @@
 A record holds what a resume needs of an unfinished run and what the results report needs of
 a finished one. Of a GA run ``runs/results/<condition>/seed_<n>`` (an evolution, or a
 regrowth ``regen_<walker>_<net>/seed_<n>``): config.json, metrics.csv, every generation's best
-robot (best/gen_NNNN.npy), the best generation's NCA (best/gen_NNNN.npz), a regrowth's
-recovery files (recovery.json, recovery.md, regrowth.npz, original/damaged/regrown.npy) and,
-while the run is unfinished, checkpoint.npz. A finished run's record has no checkpoint:
-resuming it returns its summary at once (`mjregen.search.runs.run_evolution`). Of the
-regrowth experiment's walkers (``runs/results/walkers``): walkers.json and their NCAs and
-robots. The copy replaces the earlier record.
+robot (best/gen_NNNN.npy), the best generation's NCA (best/gen_NNNN.npz; `best_ncas`), a
+regrowth's recovery files (recovery.json, recovery.md, regrowth.npz, original/damaged/
+regrown.npy) and, while the run is unfinished, checkpoint.npz. A finished run's record has no
+checkpoint: resuming it returns its summary at once (`mjregen.search.runs.run_evolution`). Of
+the regrowth experiment's walkers (``runs/results/walkers``): walkers.json and their NCAs and
+robots. Of a quality-diversity comparison's run (``runs/qd/<method>/seed_<n>``, a folder with
+``evaluations/``), into records/qd/: a GA run as above, a MAP-Elites run with its archive.npz,
+best.npz/.npy and checkpoint.npz (kept when finished too: a MAP-Elites run resumes only from
+it), each with every recorded evaluation. The copy replaces the earlier record.
 
 Example: python scripts/snapshot_runs.py runs/results/3d_lstm/seed_0 runs/results/walkers
 """
@@ -17,17 +20,25 @@ Example: python scripts/snapshot_runs.py runs/results/3d_lstm/seed_0 runs/result
 from __future__ import annotations
 
 import argparse
+import json
+import math
 import shutil
 import sys
 from collections.abc import Callable
 from pathlib import Path
 
-from mjregen.experiments.paper import read_run
+import numpy as np
+
+from mjregen.experiments.paper import RunInfo, read_run
+from mjregen.growth.checkpoint import load_nca
 
 ROOT = Path(__file__).resolve().parents[1]
 DESTINATION = ROOT / "records" / "results"
+QD_DESTINATION = ROOT / "records" / "qd"
 RECOVERY_FILES = ("recovery.json", "recovery.md", "regrowth.npz", "original.npy", "damaged.npy",
                   "regrown.npy")
+MAP_ELITES_FILES = ("config.json", "metrics.csv", "archive.npz", "best.npz", "best.npy",
+                    "checkpoint.npz")
 
 
 def _replace(target: Path, fill: Callable[[Path], None]) -> Path:
@@ -50,9 +61,55 @@ def snapshot_walkers(folder: Path, destination: Path = DESTINATION) -> Path:
     return _replace(destination / folder.name, fill)
 
 
+def _copy_evaluations(run: Path, staging: Path) -> None:
+    """A quality-diversity run's recorded evaluations (evaluations/NNNN.npz), if any."""
+    if (run / "evaluations").is_dir():
+        shutil.copytree(run / "evaluations", staging / "evaluations")
+
+
+def is_map_elites(run: Path) -> bool:
+    """Does `run` hold a MAP-Elites run (its config.json has "map_elites")?"""
+    path = run / "config.json"
+    return path.is_file() and "map_elites" in json.loads(path.read_text())
+
+
+def snapshot_map_elites(run: Path, destination: Path = QD_DESTINATION) -> Path:
+    """Copy the record of the MAP-Elites run `run` (`MAP_ELITES_FILES` and evaluations/) to
+    destination/<its parent's name>/<its name>; returns it.
+
+    Raises:
+      FileNotFoundError: `run` lacks one of `MAP_ELITES_FILES`.
+    """
+    missing = [name for name in MAP_ELITES_FILES if not (run / name).is_file()]
+    if missing:
+        raise FileNotFoundError(f"{run} has no {', '.join(missing)}: not a MAP-Elites run "
+                                "with an iteration done")
+
+    def fill(staging: Path) -> None:
+        for name in MAP_ELITES_FILES:
+            shutil.copy2(run / name, staging / name)
+        _copy_evaluations(run, staging)
+    return _replace(destination / run.parent.name / run.name, fill)
+
+
+def best_ncas(info: RunInfo) -> list[Path]:
+    """The NCA files a record keeps: the first generation's listed with the highest fitness
+    (the report's best) and, where a later one of those (metrics.csv rounds to 6 digits) has a
+    higher fitness in its file, the first with the highest (the run's best, which a resume of
+    the finished record reads)."""
+    kept, top = [], -math.inf
+    for generation in np.flatnonzero(info.best == info.best.max()):
+        path, _ = info.best_files(int(generation))
+        fitness = float(load_nca(path)[1]["fitness"])
+        if fitness > top:
+            kept.append(path)
+            top = fitness
+    return kept[:1] + kept[-1:] if len(kept) > 1 else kept
+
+
 def snapshot(run: Path, destination: Path = DESTINATION) -> Path:
-    """Copy the record of the GA run `run` to destination/<its parent's name>/<its name>;
-    returns it.
+    """Copy the record of the GA run `run` (with evaluations/ if it has them) to
+    destination/<its parent's name>/<its name>; returns it.
 
     Raises:
       FileNotFoundError: `run` has no config.json or no generation done, or an unfinished
@@ -67,7 +124,7 @@ def snapshot(run: Path, destination: Path = DESTINATION) -> Path:
             raise FileNotFoundError(f"{run} has no checkpoint.npz: nothing to resume")
         names.append("checkpoint.npz")
     names += [name for name in RECOVERY_FILES if (run / name).is_file()]
-    nca, _ = info.best_files()
+    ncas = best_ncas(info)
 
     def fill(staging: Path) -> None:
         (staging / "best").mkdir()
@@ -75,7 +132,9 @@ def snapshot(run: Path, destination: Path = DESTINATION) -> Path:
             shutil.copy2(run / name, staging / name)
         for robot in sorted((run / "best").glob("gen_*.npy")):
             shutil.copy2(robot, staging / "best" / robot.name)
-        shutil.copy2(nca, staging / "best" / nca.name)
+        for nca in ncas:
+            shutil.copy2(nca, staging / "best" / nca.name)
+        _copy_evaluations(run, staging)
     return _replace(destination / run.parent.name / run.name, fill)
 
 
@@ -89,7 +148,11 @@ def main(argv: list[str] | None = None) -> int:
             if (run / "walkers.json").is_file():
                 print(f"{run} -> {snapshot_walkers(run).relative_to(ROOT)}")
                 continue
-            target = snapshot(run)
+            if is_map_elites(run):
+                print(f"{run} -> {snapshot_map_elites(run).relative_to(ROOT)}")
+                continue
+            target = snapshot(run, QD_DESTINATION if (run / "evaluations").is_dir()
+                              else DESTINATION)
         except FileNotFoundError as error:
             print(f"error: {error}", file=sys.stderr)
             return 2

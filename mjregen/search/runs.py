@@ -137,26 +137,34 @@ def _save_best(stem: Path, config: NCAConfig, genome: np.ndarray, result: Popula
 def _finished_record(out: Path, generations: int) -> RunSummary | None:
     """The summary of a run in `out` whose metrics.csv lists all `generations` (None when it
     lists fewer), read from best/ without its checkpoint: the best genome is the first
-    generation's best NCA with the highest fitness.
+    generation's best NCA with the highest fitness. metrics.csv rounds to 6 digits, so every
+    generation listed with the highest fitness is a candidate, read in full from its NCA file;
+    a record keeps only some of their files (the missing ones are skipped).
 
     Raises:
-      RunFolderError: a best NCA file it needs is missing or unreadable.
+      RunFolderError: none of the candidates' NCA files exists, or one cannot be read.
     """
     rows = read_metrics(out / "metrics.csv", "generation", generations)
     if not rows or len(rows) < generations:
         return None
     listed = np.array([float(r["best"]) for r in rows])
+    candidates = np.flatnonzero(listed == listed.max())
     best: tuple[float, int, np.ndarray] | None = None
-    for generation in np.flatnonzero(listed == listed.max()):  # metrics.csv rounds to 6 digits
+    for generation in candidates:
         path = out / "best" / f"gen_{generation:04d}.npz"
+        if not path.is_file():
+            continue
         try:
             nca, metadata = load_nca(path)
-        except (FileNotFoundError, CheckpointError) as error:
+        except CheckpointError as error:
             raise RunFolderError(f"{out} is finished but its best NCA cannot be read: "
                                  f"{error}") from None
         if best is None or metadata["fitness"] > best[0]:
             best = (float(metadata["fitness"]), int(generation), nca.genome)
-    assert best is not None  # rows is not empty
+    if best is None:
+        names = ", ".join(f"gen_{g:04d}.npz" for g in candidates)
+        raise RunFolderError(f"{out} is finished but its best NCA cannot be read: none of "
+                             f"{names} is in {out / 'best'}")
     return RunSummary(out=out, generations=generations, best_fitness=best[0],
                       best_generation=best[1], best_genome=np.asarray(best[2], dtype=np.float32))
 
