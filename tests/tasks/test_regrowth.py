@@ -7,7 +7,7 @@ import pytest
 import torch
 
 from mjregen.grid import Robot
-from mjregen.growth.nca import NCA, CAState, NCAConfig
+from mjregen.growth.nca import NCA, NCAConfig
 from mjregen.growth.networks import CellNetwork, network_to_genome, random_genomes
 from mjregen.search.backends import SerialBackend
 from mjregen.search.ga import GAConfig, GeneticAlgorithm
@@ -144,7 +144,8 @@ def test_shipped_tripod_regrowth_nca_regrows_the_tripod_exactly():
 @pytest.mark.parametrize("name", ["walker_1", "walker_2", "walker_3"])
 def test_shipped_walker_regrowth_ncas_regrow_what_walkers_json_records(name):
     """The regrowth experiment of docs/results.md, replayed from assets: the walker's grown
-    CA state, the paper's cut, the shipped regrowth NCA; the similarities match the record."""
+    CA state as grown (alphas and all), the paper's cut, the shipped regrowth NCA of each
+    network; the regrown cells match walkers.json's record and the NCA's own."""
     import json
 
     from mjregen.growth.checkpoint import load_nca
@@ -154,17 +155,16 @@ def test_shipped_walker_regrowth_ncas_regrow_what_walkers_json_records(name):
                   if w["name"] == name)
     walker, _ = load_nca(f"assets/robots/walkers/{name}.npz")
     growth = walker.grow()
-    grown = state_of_growth(growth)
-    # these NCAs were evolved from the grown state with the empty cells' alpha zeroed
-    # (assets/regen/README.md), not the paper's start, which keeps it
-    start = CAState(grown.state, torch.where(grown.state != 0, grown.alpha, 0.0), grown.memory)
-    damaged = paper_cut(start)
-    regrowth, _ = load_nca(f"assets/regen/{name}_ff.npz")
-    task = RegrowthTask(nca=regrowth.config, original=growth.grids[0], damaged=damaged)
-    regrown = task.regrow(regrowth.genome).grids
-    expected = record["regrowth"]["ff"]["similarity"]
-    assert int(similarity(regrown, growth.grids[0])[0]) == expected["regrown"]
-    assert regrown[0].any()
+    damaged = paper_cut(state_of_growth(growth))
+    assert set(record["regrowth"]) == {"ff", "lstm"}
+    for net, expected in record["regrowth"].items():
+        regrowth, metadata = load_nca(f"assets/regen/{name}_{net}.npz")
+        assert metadata["robot"] == name and metadata["start"] == "grown"
+        task = RegrowthTask(nca=regrowth.config, original=growth.grids[0], damaged=damaged)
+        regrown = task.regrow(regrowth.genome).grids
+        cells = int(similarity(regrown, growth.grids[0])[0])
+        assert cells == expected["similarity"]["regrown"] == metadata["similarity"], net
+        assert regrown[0].any()
 
 
 def test_genomes_seen_before_are_not_regrown_and_score_the_same(monkeypatch):
