@@ -64,6 +64,7 @@ TABLE_1_LATEX = r"""
 _ROW = re.compile(r"^\s*(\w+) \(([\w ]+)\)\s*&\s*\$?([\d.]+)\\%\$?\s*\((\d+)/(\d+)\)\s*&\s*([\d.]+)\s*&"
                   r"\s*([\d.]+)\s*\(\$([\d.]+)\\%\$\)\s*&\s*([\d.]+)\s*\(\$([\d.]+)\\%\$\)", re.MULTILINE)
 NAMES = {"ff": "feed-forward", "lstm": "LSTM"}
+DISTANCE_RESOLUTION = 0.005  # voxel lengths: a distance below it is a robot at rest
 PAPER_ROBOTS = ROOT / "assets" / "robots" / "paper"
 
 
@@ -94,6 +95,14 @@ def fmt(value: float | None, digits: int = 3) -> str:
     if value is None or (isinstance(value, float) and not math.isfinite(value)):
         return "–"
     return f"{value:.{digits}g}"
+
+
+def fmt_distance(value: float | None, digits: int = 3) -> str:
+    """A distance in voxel lengths to `digits` significant digits; below
+    `DISTANCE_RESOLUTION` it is a robot at rest (numerical noise) and shows as 0."""
+    if value is not None and math.isfinite(value) and abs(value) < DISTANCE_RESOLUTION:
+        return "0"
+    return fmt(value, digits)
 
 
 def percent(value: float | None) -> str:
@@ -291,7 +300,7 @@ class Report:
                 failed = sum(_metric_sum(r, "failed") for r in runs)
                 self.add(f"| {name} | {len(runs)} | {len(stats.mean)} | {stats.mean[-1]:.4g} "
                          f"[{stats.low[-1]:.4g}, {stats.high[-1]:.4g}] | {top.best_fitness:.4g}, "
-                         f"{fmt(_best_distance(top), 4)}, seed {top.seed}, gen {top.best_generation} | "
+                         f"{fmt_distance(_best_distance(top), 4)}, seed {top.seed}, gen {top.best_generation} | "
                          f"{unstable} / {failed} |")
             self.add("")
             if len(groups) == 2:
@@ -323,7 +332,7 @@ class Report:
             source = entry["source"]
             self.add(f"| {key} | {entry['condition']} | {entry.get('scale')} | "
                      f"{source['run']} gen {source['generation']} | {entry['fitness']:.4g} | "
-                     f"{fmt(entry['distance'], 4)} | {r['voxels']} ({r['soft']}/{r['hard']}/"
+                     f"{fmt_distance(entry['distance'], 4)} | {r['voxels']} ({r['soft']}/{r['hard']}/"
                      f"{r['muscle_plus']}/{r['muscle_minus']}) | {r.get('pieces', '–')} |")
         self.add("", "Growth sequences (10 NCA steps, then the paper's cleaning):", "")
         for key, entry in real.items():
@@ -354,7 +363,7 @@ class Report:
         for w in data["walkers"]:
             f, m = w["features"], w["materials"]
             self.add(f"| {w['name']} | {w['condition']} seed {w['seed']} gen {w['generation']} | "
-                     f"{w['fitness']:.4g} | {fmt(w['distance'], 4)} | {w['voxels']} | "
+                     f"{w['fitness']:.4g} | {fmt_distance(w['distance'], 4)} | {w['voxels']} | "
                      f"{m['soft']}/{m['hard']}/{m['muscle_plus']}/{m['muscle_minus']} | "
                      f"{f['feet']:.0f} | {f['length']:.0f} × {f['width']:.0f} × {f['height']:.0f} |")
             drawn.append((w["name"], index.parent / w["robot_file"], None))
@@ -412,14 +421,14 @@ class Report:
                          f"({sim}/{r['grid_cells']}; damaged {r['similarity']['damaged']}) | "
                          f"{100 * r['robot_similarity']['regrown']:.1f} % | "
                          f"{r['voxels']['original']}/{r['voxels']['damaged']}/{r['voxels']['regrown']} | "
-                         f"{fmt(r['distance']['original'], 3)} | {fmt(r['distance']['damaged'], 3)} "
-                         f"({percent(pct['damaged'])} %) | {fmt(r['distance']['regrown'], 3)} "
+                         f"{fmt_distance(r['distance']['original'], 3)} | {fmt_distance(r['distance']['damaged'], 3)} "
+                         f"({percent(pct['damaged'])} %) | {fmt_distance(r['distance']['regrown'], 3)} "
                          f"({percent(pct['regrown'])} %) | {run.generations_done} × pop "
                          f"{run.config['ga']['population']} |")
                 self.facts.append(
                     f"Regrowth of {walker} ({NAMES.get(net, net)}): {sim}/{r['grid_cells']} cells; "
                     f"damaged walks {percent(pct['damaged'])} % and regrown "
-                    f"{percent(pct['regrown'])} % of the original's {fmt(r['distance']['original'], 3)} "
+                    f"{percent(pct['regrown'])} % of the original's {fmt_distance(r['distance']['original'], 3)} "
                     "voxel lengths.")
             durations = sorted({json.loads((f / "recovery.json").read_text())["duration"]
                                 for _, _, f in found})
@@ -494,16 +503,16 @@ class Report:
             self.add(f"| {e['robot'].capitalize()} ({NAMES.get(e['net'], e['net'])}) | {e['start']} | "
                      f"{ga['population']} × {e['generations_run']} | {e['similarity']}/{e['grid_cells']}"
                      + (f" / {theirs['similarity']}/{theirs['grid_cells']}" if theirs else "") + " | "
-                     f"{fmt(dist['original'], 3)}" + (f" / {theirs['original']:g}" if theirs else "") + " | "
-                     f"{fmt(dist['damaged'], 3)} ({percent(pct['damaged'])} %)"
+                     f"{fmt_distance(dist['original'], 3)}" + (f" / {theirs['original']:g}" if theirs else "") + " | "
+                     f"{fmt_distance(dist['damaged'], 3)} ({percent(pct['damaged'])} %)"
                      + other("damaged", "damaged_percent") + " | "
-                     f"{fmt(dist['regrown'], 3)} ({percent(pct['regrown'])} %)"
+                     f"{fmt_distance(dist['regrown'], 3)} ({percent(pct['regrown'])} %)"
                      + other("regrown", "regrown_percent") + " |")
             self.facts.append(
                 f"The paper's {e['robot']} regrown by the shipped {NAMES.get(e['net'], e['net'])} "
                 f"NCA: {e['similarity']}/{e['grid_cells']} cells; damaged walks "
                 f"{percent(pct['damaged'])} %, regrown {percent(pct['regrown'])} % of its "
-                f"{fmt(dist['original'], 3)} voxel lengths here.")
+                f"{fmt_distance(dist['original'], 3)} voxel lengths here.")
         self.add("", "Start: the CA state regrown from (\"saved\": the biped's as the paper's "
                  "code saved it; \"alpha 1\": the grid alone, as only the tripod's and "
                  "multiped's grids were published). GA: population × generations run.", "")
@@ -549,11 +558,11 @@ class Report:
                        if distance["original"] else math.nan for role in ("damaged", "regrown")}
             self.add(f"| {run.condition} seed {run.seed} | {run.config['ga']['population']} × "
                      f"{run.generations_done} | {run.config['task']['cell_cost']:g} | "
-                     f"{meta['fitness']:.4g} | {fmt(distance['original'], 4)} | "
+                     f"{meta['fitness']:.4g} | {fmt_distance(distance['original'], 4)} | "
                      f"{report.similarity['paper']} | {np.mean(cuts):.1f} ({min(cuts)}) | "
-                     f"{fmt(distance['damaged'], 4)} ({percent['damaged']:.0f} %) / "
-                     f"{fmt(distance['regrown'], 4)} ({percent['regrown']:.0f} %) | "
-                     f"{fmt(alone, 4)} | {ratio:.0%} |")
+                     f"{fmt_distance(distance['damaged'], 4)} ({percent['damaged']:.0f} %) / "
+                     f"{fmt_distance(distance['regrown'], 4)} ({percent['regrown']:.0f} %) | "
+                     f"{fmt_distance(alone, 4)} | {ratio:.0%} |")
             unfinished = ("" if run.complete else f", unfinished: {run.generations_done} of "
                           f"{run.generations_planned} generations")
             self.facts.append(
@@ -585,7 +594,7 @@ class Report:
             best = max(best3d)
             low, high = min(r["original"] for r in rows), max(r["original"] for r in rows)
             self.facts.append(
-                f"Farthest 3D walker of the best runs: {fmt(best[0], 4)} voxel lengths in 0.5 s "
+                f"Farthest 3D walker of the best runs: {fmt_distance(best[0], 4)} voxel lengths in 0.5 s "
                 f"({best[1]}); the paper's walkers in Table 1 went {low:g}–{high:g} "
                 f"({100 * best[0] / high:.2g}–{100 * best[0] / low:.2g} % of that).")
         best2d = [(_best_distance(ex.best_run(self.runs[n])), n) for n in ("2d_ff", "2d_lstm")
@@ -593,7 +602,7 @@ class Report:
         best2d = [b for b in best2d if math.isfinite(b[0])]
         if best2d:
             best = max(best2d)
-            self.facts.append(f"Farthest 2D walker of the best runs: {fmt(best[0], 4)} voxel "
+            self.facts.append(f"Farthest 2D walker of the best runs: {fmt_distance(best[0], 4)} voxel "
                               f"lengths in 0.25 s ({best[1]}); the paper gives no 2D distances.")
         missing = [n for n in ex.CONDITIONS if n not in self.runs]
         if missing:

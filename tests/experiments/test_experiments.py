@@ -293,6 +293,15 @@ def test_results_report_writes_every_section(results, tmp_path, monkeypatch):
                             "damaged_percent": 12.0, "regrown": 9.6, "regrown_percent": 22.0}
 
 
+def test_report_distances_show_a_robot_at_rest_as_zero_not_as_rounding_noise():
+    # a damaged robot that does not move ends 1e-13 voxel lengths from its start
+    assert results_report.fmt_distance(1.091e-13, 4) == "0"
+    assert results_report.fmt_distance(-2e-9) == "0"
+    assert results_report.fmt_distance(0.0061) == "0.0061"
+    assert results_report.fmt_distance(5.73327, 3) == "5.73"
+    assert results_report.fmt_distance(float("nan")) == results_report.fmt_distance(None) == "–"
+
+
 def test_the_network_comparison_needs_two_runs_a_side_and_a_common_generation():
     from mjregen.search.stats import CurveStats
 
