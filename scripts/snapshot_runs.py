@@ -10,9 +10,10 @@ regrown.npy) and, while the run is unfinished, checkpoint.npz. A finished run's 
 checkpoint: resuming it returns its summary at once (`mjregen.search.runs.run_evolution`). Of
 the regrowth experiment's walkers (``runs/results/walkers``): walkers.json and their NCAs and
 robots. Of a quality-diversity comparison's run (``runs/qd/<method>/seed_<n>``, a folder with
-``evaluations/``), into records/qd/: a GA run as above, a MAP-Elites run with its archive.npz,
-best.npz/.npy and checkpoint.npz (kept when finished too: a MAP-Elites run resumes only from
-it), each with every recorded evaluation. The copy replaces the earlier record.
+``evaluations/``), into records/qd/: a GA run as above, a MAP-Elites run with its
+config.json, metrics.csv, archive.npz, best.npz/.npy and, while unfinished, checkpoint.npz
+(`mjregen.search.qd_runs.run_map_elites` resumes a finished record to its summary), each
+with every recorded evaluation. The copy replaces the earlier record.
 
 Example: python scripts/snapshot_runs.py runs/results/3d_lstm/seed_0 runs/results/walkers
 """
@@ -31,14 +32,14 @@ import numpy as np
 
 from mjregen.experiments.paper import RunInfo, read_run
 from mjregen.growth.checkpoint import load_nca
+from mjregen.search.run_folder import read_metrics
 
 ROOT = Path(__file__).resolve().parents[1]
 DESTINATION = ROOT / "records" / "results"
 QD_DESTINATION = ROOT / "records" / "qd"
 RECOVERY_FILES = ("recovery.json", "recovery.md", "regrowth.npz", "original.npy", "damaged.npy",
                   "regrown.npy")
-MAP_ELITES_FILES = ("config.json", "metrics.csv", "archive.npz", "best.npz", "best.npy",
-                    "checkpoint.npz")
+MAP_ELITES_FILES = ("config.json", "metrics.csv", "archive.npz", "best.npz", "best.npy")
 
 
 def _replace(target: Path, fill: Callable[[Path], None]) -> Path:
@@ -74,19 +75,27 @@ def is_map_elites(run: Path) -> bool:
 
 
 def snapshot_map_elites(run: Path, destination: Path = QD_DESTINATION) -> Path:
-    """Copy the record of the MAP-Elites run `run` (`MAP_ELITES_FILES` and evaluations/) to
-    destination/<its parent's name>/<its name>; returns it.
+    """Copy the record of the MAP-Elites run `run` (`MAP_ELITES_FILES`, evaluations/ and,
+    while unfinished, checkpoint.npz) to destination/<its parent's name>/<its name>; returns
+    it.
 
     Raises:
-      FileNotFoundError: `run` lacks one of `MAP_ELITES_FILES`.
+      FileNotFoundError: `run` lacks one of `MAP_ELITES_FILES`, or is unfinished without
+        its checkpoint.
     """
     missing = [name for name in MAP_ELITES_FILES if not (run / name).is_file()]
     if missing:
         raise FileNotFoundError(f"{run} has no {', '.join(missing)}: not a MAP-Elites run "
                                 "with an iteration done")
+    iterations = json.loads((run / "config.json").read_text())["map_elites"]["iterations"]
+    names = list(MAP_ELITES_FILES)
+    if len(read_metrics(run / "metrics.csv", "iteration", iterations)) < iterations:
+        if not (run / "checkpoint.npz").is_file():
+            raise FileNotFoundError(f"{run} has no checkpoint.npz: nothing to resume")
+        names.append("checkpoint.npz")
 
     def fill(staging: Path) -> None:
-        for name in MAP_ELITES_FILES:
+        for name in names:
             shutil.copy2(run / name, staging / name)
         _copy_evaluations(run, staging)
     return _replace(destination / run.parent.name / run.name, fill)

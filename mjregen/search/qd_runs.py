@@ -14,7 +14,9 @@ The folder holds
                   written atomically, with the hash of config.json
   errors.log      the evaluations that failed (only when some failed)
 A killed run continues from `checkpoint.npz` with ``resume=True`` and produces exactly the
-results of an uninterrupted run. Unstable and failed robots enter the archive with their
+results of an uninterrupted run. A finished run kept without its checkpoint (a record,
+`scripts/snapshot_runs.py`) resumes to its summary at once; an unfinished one without it
+is an error (its files are left as they are). Unstable and failed robots enter the archive with their
 penalty fitness (any working robot of their cell replaces them).
 """
 
@@ -98,7 +100,8 @@ def run_map_elites(task: QDTask, config: MapElitesConfig, *, seed: int, out: str
       on_iteration: called with each iteration's metrics row.
     Raises:
       RunFolderError: `out` holds another run, there is nothing to resume, its config was
-        edited, or `force` is asked to delete a folder that is not a run folder.
+        edited, it lists iterations but has no checkpoint and is unfinished, or `force` is
+        asked to delete a folder that is not a run folder.
       RunFailedError: every evaluation of an iteration failed.
       CheckpointError: the checkpoint cannot be read.
       mjregen.search.map_elites.MissingRibsError: ribs is not installed (nothing is written).
@@ -117,6 +120,8 @@ def run_map_elites(task: QDTask, config: MapElitesConfig, *, seed: int, out: str
     ranges = descriptor_ranges(config.descriptors, shape)
     if prepare_folder(out, run_config, resume=resume, force=force):
         search = _checkpoint_load(out / "checkpoint.npz")
+    elif resume and read_metrics(out / "metrics.csv", "iteration", config.iterations):
+        return _finished_record(out, config.iterations)
     else:
         search = MapElites(config, task.nca.genome_size, ranges=ranges, seed=int(seed),
                            qd_score_offset=task.lowest_fitness,
@@ -168,6 +173,31 @@ def run_map_elites(task: QDTask, config: MapElitesConfig, *, seed: int, out: str
     return QDRunSummary(out=out, iterations=search.iteration, best_fitness=stats["best"],
                         qd_score=stats["qd_score"], coverage=stats["coverage"],
                         elites=stats["elites"])
+
+
+def _finished_record(out: Path, iterations: int) -> QDRunSummary:
+    """The summary of a finished run in `out` kept without its checkpoint: QD score,
+    coverage and elites of metrics.csv's last row, the best fitness from best.npz.
+
+    Raises:
+      RunFolderError: metrics.csv lists fewer than `iterations` (nothing to continue
+        from), or best.npz is missing or unreadable.
+    """
+    from mjregen.growth.checkpoint import load_nca
+
+    rows = read_metrics(out / "metrics.csv", "iteration", iterations)
+    if len(rows) < iterations:
+        raise RunFolderError(f"{out} lists {len(rows)} of {iterations} iterations but has no "
+                             "checkpoint.npz to continue from; its files are left as they are")
+    try:
+        best = float(load_nca(out / "best.npz")[1]["fitness"])
+    except (FileNotFoundError, CheckpointError) as error:
+        raise RunFolderError(f"{out} is finished but its best elite cannot be read: "
+                             f"{error}") from None
+    last = rows[-1]
+    return QDRunSummary(out=out, iterations=iterations, best_fitness=best,
+                        qd_score=float(last["qd_score"]), coverage=float(last["coverage"]),
+                        elites=int(last["elites"]))
 
 
 def _metrics_row(stats: dict, result: PopulationEvaluation, *, iteration: int, wall: float,

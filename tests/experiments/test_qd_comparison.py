@@ -9,6 +9,8 @@ from pathlib import Path
 
 import pytest
 
+from mjregen.search.run_folder import RunFolderError
+
 pytest.importorskip("ribs")
 
 SCRIPTS = Path(__file__).resolve().parents[2] / "scripts"
@@ -41,8 +43,8 @@ def test_qd_records_give_the_same_report_and_resume_without_evaluating(tmp_path)
     ga = snapshot_runs.snapshot(runs / "ga" / "seed_0", records)
     me = snapshot_runs.snapshot_map_elites(runs / "map-elites" / "seed_0", records)
     assert (ga, me) == (records / "ga" / "seed_0", records / "map-elites" / "seed_0")
-    assert not (ga / "checkpoint.npz").exists()  # a finished GA run resumes from best/
-    assert (me / "checkpoint.npz").is_file()  # MAP-Elites resumes only from its checkpoint
+    # finished runs are kept without their checkpoints (MAP-Elites': megabytes of pickles)
+    assert not (ga / "checkpoint.npz").exists() and not (me / "checkpoint.npz").exists()
     for record in (ga, me):
         assert sorted((record / "evaluations").iterdir()) != []
         assert ([p.name for p in sorted((record / "evaluations").iterdir())]
@@ -52,11 +54,19 @@ def test_qd_records_give_the_same_report_and_resume_without_evaluating(tmp_path)
     # the records, restored, resume to the same runs without a single evaluation
     restored = tmp_path / "restored"
     shutil.copytree(records, restored)
-    before = {p: p.read_bytes() for p in restored.rglob("*") if p.is_file()
-              and p.name != "checkpoint.npz"}
+    before = {p: p.read_bytes() for p in restored.rglob("*") if p.is_file()}
     assert qd_comparison.main(["--root", str(restored), *TINY]) == 0
-    after = {p: p.read_bytes() for p in restored.rglob("*") if p.is_file()
-             and p.name != "checkpoint.npz"}
+    after = {p: p.read_bytes() for p in restored.rglob("*") if p.is_file()}
     assert after == before
+    # a record that lists fewer iterations than its run has and no checkpoint is not
+    # started again over its files
+    metrics = restored / "map-elites" / "seed_0" / "metrics.csv"
+    metrics.write_text("".join(metrics.read_text().splitlines(keepends=True)[:-1]))
+    before = {p: p.read_bytes() for p in restored.rglob("*") if p.is_file()}
+    with pytest.raises(RunFolderError, match="lists 1 of 2 iterations but has no checkpoint"):
+        qd_comparison.main(["--root", str(restored), *TINY])
+    assert {p: p.read_bytes() for p in restored.rglob("*") if p.is_file()} == before
+    with pytest.raises(FileNotFoundError, match="checkpoint.npz: nothing to resume"):
+        snapshot_runs.snapshot_map_elites(restored / "map-elites" / "seed_0", tmp_path / "again")
     with pytest.raises(FileNotFoundError, match="archive.npz"):
         snapshot_runs.snapshot_map_elites(ga, tmp_path / "elsewhere")
