@@ -300,7 +300,8 @@ class Report:
                 failed = sum(_metric_sum(r, "failed") for r in runs)
                 self.add(f"| {name} | {len(runs)} | {len(stats.mean)} | {stats.mean[-1]:.4g} "
                          f"[{stats.low[-1]:.4g}, {stats.high[-1]:.4g}] | {top.best_fitness:.4g}, "
-                         f"{fmt_distance(_best_distance(top), 4)}, seed {top.seed}, gen {top.best_generation} | "
+                         f"{fmt_distance(_best_distance(top), 4)}, seed {top.seed}, "
+                         f"gen {top.best_generation} | "
                          f"{unstable} / {failed} |")
             self.add("")
             if len(groups) == 2:
@@ -421,7 +422,8 @@ class Report:
                          f"({sim}/{r['grid_cells']}; damaged {r['similarity']['damaged']}) | "
                          f"{100 * r['robot_similarity']['regrown']:.1f} % | "
                          f"{r['voxels']['original']}/{r['voxels']['damaged']}/{r['voxels']['regrown']} | "
-                         f"{fmt_distance(r['distance']['original'], 3)} | {fmt_distance(r['distance']['damaged'], 3)} "
+                         f"{fmt_distance(r['distance']['original'], 3)} | "
+                         f"{fmt_distance(r['distance']['damaged'], 3)} "
                          f"({percent(pct['damaged'])} %) | {fmt_distance(r['distance']['regrown'], 3)} "
                          f"({percent(pct['regrown'])} %) | {run.generations_done} × pop "
                          f"{run.config['ga']['population']} |")
@@ -503,7 +505,8 @@ class Report:
             self.add(f"| {e['robot'].capitalize()} ({NAMES.get(e['net'], e['net'])}) | {e['start']} | "
                      f"{ga['population']} × {e['generations_run']} | {e['similarity']}/{e['grid_cells']}"
                      + (f" / {theirs['similarity']}/{theirs['grid_cells']}" if theirs else "") + " | "
-                     f"{fmt_distance(dist['original'], 3)}" + (f" / {theirs['original']:g}" if theirs else "") + " | "
+                     f"{fmt_distance(dist['original'], 3)}"
+                     + (f" / {theirs['original']:g}" if theirs else "") + " | "
                      f"{fmt_distance(dist['damaged'], 3)} ({percent(pct['damaged'])} %)"
                      + other("damaged", "damaged_percent") + " | "
                      f"{fmt_distance(dist['regrown'], 3)} ({percent(pct['regrown'])} %)"

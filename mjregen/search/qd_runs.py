@@ -16,8 +16,8 @@ The folder holds
 A killed run continues from `checkpoint.npz` with ``resume=True`` and produces exactly the
 results of an uninterrupted run. A finished run kept without its checkpoint (a record,
 `scripts/snapshot_runs.py`) resumes to its summary at once; an unfinished one without it
-is an error (its files are left as they are). Unstable and failed robots enter the archive with their
-penalty fitness (any working robot of their cell replaces them).
+is an error (its files are left as they are). Unstable and failed robots enter the archive
+with their penalty fitness (any working robot of their cell replaces them).
 """
 
 from __future__ import annotations
