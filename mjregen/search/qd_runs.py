@@ -118,10 +118,12 @@ def run_map_elites(task: QDTask, config: MapElitesConfig, *, seed: int, out: str
     }
     shape = (task.nca.grid_size,) * task.nca.dim
     ranges = descriptor_ranges(config.descriptors, shape)
-    if prepare_folder(out, run_config, resume=resume, force=force):
+    resumed = prepare_folder(out, run_config, resume=resume, force=force)
+    finished = None if resumed or not resume else _finished_record(out, config.iterations)
+    if finished is not None:
+        return finished
+    if resumed:
         search = _checkpoint_load(out / "checkpoint.npz")
-    elif resume and read_metrics(out / "metrics.csv", "iteration", config.iterations):
-        return _finished_record(out, config.iterations)
     else:
         search = MapElites(config, task.nca.genome_size, ranges=ranges, seed=int(seed),
                            qd_score_offset=task.lowest_fitness,
@@ -175,17 +177,21 @@ def run_map_elites(task: QDTask, config: MapElitesConfig, *, seed: int, out: str
                         elites=stats["elites"])
 
 
-def _finished_record(out: Path, iterations: int) -> QDRunSummary:
+def _finished_record(out: Path, iterations: int) -> QDRunSummary | None:
     """The summary of a finished run in `out` kept without its checkpoint: QD score,
-    coverage and elites of metrics.csv's last row, the best fitness from best.npz.
+    coverage and elites of metrics.csv's last row, the best fitness from best.npz. None when
+    metrics.csv lists at most one of more iterations: a run killed in its first iteration
+    (metrics.csv is written before the checkpoint), which starts again.
 
     Raises:
-      RunFolderError: metrics.csv lists fewer than `iterations` (nothing to continue
-        from), or best.npz is missing or unreadable.
+      RunFolderError: metrics.csv lists more than one iteration but fewer than
+        `iterations` (nothing to continue from), or best.npz is missing or unreadable.
     """
     from mjregen.growth.checkpoint import load_nca
 
     rows = read_metrics(out / "metrics.csv", "iteration", iterations)
+    if len(rows) <= 1 < iterations:
+        return None
     if len(rows) < iterations:
         raise RunFolderError(f"{out} lists {len(rows)} of {iterations} iterations but has no "
                              "checkpoint.npz to continue from; its files are left as they are")

@@ -14,7 +14,7 @@ from mjregen.search.run_folder import RunFolderError
 pytest.importorskip("ribs")
 
 SCRIPTS = Path(__file__).resolve().parents[2] / "scripts"
-TINY = ["--seeds", "0", "--pop", "4", "--gens", "2", "--emitters", "2", "--workers", "1", "--quiet"]
+TINY = ["--seeds", "0", "--pop", "4", "--gens", "3", "--emitters", "2", "--workers", "1", "--quiet"]
 
 
 def script(name: str):
@@ -63,7 +63,7 @@ def test_qd_records_give_the_same_report_and_resume_without_evaluating(tmp_path)
     metrics = restored / "map-elites" / "seed_0" / "metrics.csv"
     metrics.write_text("".join(metrics.read_text().splitlines(keepends=True)[:-1]))
     before = {p: p.read_bytes() for p in restored.rglob("*") if p.is_file()}
-    with pytest.raises(RunFolderError, match="lists 1 of 2 iterations but has no checkpoint"):
+    with pytest.raises(RunFolderError, match="lists 2 of 3 iterations but has no checkpoint"):
         qd_comparison.main(["--root", str(restored), *TINY])
     assert {p: p.read_bytes() for p in restored.rglob("*") if p.is_file()} == before
     with pytest.raises(FileNotFoundError, match="checkpoint.npz: nothing to resume"):
