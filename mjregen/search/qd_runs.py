@@ -15,9 +15,10 @@ The folder holds
   errors.log      the evaluations that failed (only when some failed)
 A killed run continues from `checkpoint.npz` with ``resume=True`` and produces exactly the
 results of an uninterrupted run. A finished run kept without its checkpoint (a record,
-`scripts/snapshot_runs.py`) resumes to its summary at once; an unfinished one without it
-is an error (its files are left as they are). Unstable and failed robots enter the archive
-with their penalty fitness (any working robot of their cell replaces them).
+`scripts/snapshot_runs.py`) resumes to its summary at once; an unfinished one listing more
+than one iteration without it is an error (its files are left as they are). Unstable and
+failed robots enter the archive with their penalty fitness (any working robot of their cell
+replaces them).
 """
 
 from __future__ import annotations
@@ -100,8 +101,8 @@ def run_map_elites(task: QDTask, config: MapElitesConfig, *, seed: int, out: str
       on_iteration: called with each iteration's metrics row.
     Raises:
       RunFolderError: `out` holds another run, there is nothing to resume, its config was
-        edited, it lists iterations but has no checkpoint and is unfinished, or `force` is
-        asked to delete a folder that is not a run folder.
+        edited, it lists more than one iteration but has no checkpoint and is unfinished,
+        or `force` is asked to delete a folder that is not a run folder.
       RunFailedError: every evaluation of an iteration failed.
       CheckpointError: the checkpoint cannot be read.
       mjregen.search.map_elites.MissingRibsError: ribs is not installed (nothing is written).
