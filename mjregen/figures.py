@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import Sequence
+from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
 
@@ -13,7 +13,9 @@ from mjregen.fileio import atomic_open
 from mjregen.grid import Material, Robot
 from mjregen.physics import Physics
 from mjregen.physics.mjcf import MATERIAL_RGBA
-from mjregen.search.qd_runs import StoredArchive
+
+if TYPE_CHECKING:
+    from mjregen.search.map_elites import ArchiveSnapshot
 
 
 def growth_figure(states: np.ndarray, path: str | os.PathLike, *, overwrite: bool = False,
@@ -96,11 +98,11 @@ def regrowth_figures(robots: dict[str, Robot], regrowth_states: np.ndarray,
     return [trio, steps]
 
 
-def pick_elites(archive: StoredArchive, count: int) -> list[int]:
-    """Rows of up to `count` elites (robots with voxels) spread across the map: the map's
-    first two descriptor axes cut into about `count` tiles, the fittest elite of each tile
-    (the fittest tiles' when more are filled), ordered by the first descriptor."""
-    snapshot = archive.snapshot
+def pick_elites(snapshot: ArchiveSnapshot, count: int) -> list[int]:
+    """Rows of up to `count` elites (robots with voxels, its extra field "grid") spread
+    across the map: the map's first two descriptor axes cut into about `count` tiles, the
+    fittest elite of each tile (the fittest tiles' when more are filled), ordered by the
+    first descriptor."""
     if len(snapshot.index) == 0 or count < 1:
         return []
     coords = np.stack(np.unravel_index(snapshot.index, snapshot.cells), axis=1)[:, :2]
@@ -118,10 +120,12 @@ def pick_elites(archive: StoredArchive, count: int) -> list[int]:
     return sorted(rows, key=lambda r: (snapshot.descriptors[r, 0], -snapshot.fitness[r]))
 
 
-def elite_gallery(archive: StoredArchive, path: str | os.PathLike, *, count: int = 12,
-                  physics: Physics | None = None, overwrite: bool = False) -> Path:
-    """PNG of up to `count` elites from across a MAP-Elites archive (`pick_elites`), each
-    rendered in its initial pose and titled with its fitness and descriptors.
+def elite_gallery(snapshot: ArchiveSnapshot, descriptors: Sequence[str],
+                  path: str | os.PathLike, *, count: int = 12, physics: Physics | None = None,
+                  overwrite: bool = False) -> Path:
+    """PNG of up to `count` elites from across a MAP-Elites archive (`pick_elites`; its
+    robots in the extra field "grid"), each rendered in its initial pose and titled with its
+    fitness and its `descriptors` (their names, in the snapshot's order).
 
     Raises:
       ValueError: the archive is empty or `path` is not ``.png``.
@@ -137,20 +141,19 @@ def elite_gallery(archive: StoredArchive, path: str | os.PathLike, *, count: int
     path = Path(path)
     if path.suffix != ".png":
         raise ValueError(f"a gallery is a .png file; got {str(path)!r}")
-    rows = pick_elites(archive, count)
+    rows = pick_elites(snapshot, count)
     if not rows:
         raise ValueError("the archive holds no robot with voxels to draw")
     columns = min(4, len(rows))
     lines = -(-len(rows) // columns)
     figure = Figure(figsize=(3.2 * columns, 2.9 * lines))
     FigureCanvasAgg(figure)
-    snapshot = archive.snapshot
     for k, row in enumerate(rows):
         robot = Robot(snapshot.extra["grid"][row])
         ax = figure.add_subplot(lines, columns, k + 1)
         ax.set(xticks=[], yticks=[])
         described = ", ".join(f"{name} {value:.3g}" for name, value
-                              in zip(archive.descriptors, snapshot.descriptors[row]))
+                              in zip(descriptors, snapshot.descriptors[row]))
         ax.set_title(f"fitness {snapshot.fitness[row]:.2f}\n{described}", fontsize=8)
         with RobotRenderer(compile_robot(robot, physics=physics),
                            view=View(width=320, height=240)) as renderer:

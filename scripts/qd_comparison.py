@@ -123,20 +123,24 @@ def evaluations(run: Path) -> dict[str, np.ndarray]:
 
 def archive_of(found: dict[str, np.ndarray]) -> tuple[MapElites, list[float]]:
     """All evaluations placed, batch by batch, in a fresh archive of the comparison's
-    descriptors and cells; with the QD score after each batch."""
+    descriptors and cells (each elite's distance and robot grid as extra fields; genomes are
+    not recorded); with the QD score after each batch. Of a MAP-Elites run's evaluations,
+    its own archive's elites."""
     grids = found["grids"]
     shape = grids.shape[1:]
     config = MapElitesConfig(iterations=1, batch=1, emitters=1, descriptors=DESCRIPTORS,
                              cells=default_cells(DESCRIPTORS, shape))
     search = MapElites(config, 1, ranges=descriptor_ranges(DESCRIPTORS, shape), seed=0,
-                       qd_score_offset=-21.0, extra_fields={"distance": ((), np.float64)})
+                       qd_score_offset=-21.0, extra_fields={"distance": ((), np.float64),
+                                                            "grid": (shape, np.int8)})
     measures = describe(grids, DESCRIPTORS)
     distance = np.nan_to_num(found["distance"])
     scores = []
     for batch in range(int(found["batch"].max()) + 1):
         rows = found["batch"] == batch
         search.archive.add(np.zeros((int(rows.sum()), 1), dtype=np.float32),
-                           found["fitness"][rows], measures[rows], distance=distance[rows])
+                           found["fitness"][rows], measures[rows], distance=distance[rows],
+                           grid=grids[rows])
         scores.append(search.stats()["qd_score"])
     return search, scores
 
@@ -145,15 +149,14 @@ def report(args: argparse.Namespace) -> None:
     from mjregen.figures import elite_gallery
     from mjregen.plotting import save_png
     from mjregen.search.archive_plots import archive_heatmap
-    from mjregen.search.qd_runs import read_archive
 
     figures = args.docs / "quality_diversity"
     figures.mkdir(parents=True, exist_ok=True)
     found = {(m, s): evaluations(args.root / m / f"seed_{s}") for m in METHODS for s in args.seeds}
     farthest = max(float(np.nanmax(f["distance"])) for f in found.values())
-    rows, curves = {}, {m: {"best": [], "qd": []} for m in METHODS}
+    rows, curves, archives = {}, {m: {"best": [], "qd": []} for m in METHODS}, {}
     for (method, seed), data in found.items():
-        archive, qd = archive_of(data)
+        archive, qd = archives[(method, seed)] = archive_of(data)
         elites = archive.archive.data()
         stats = archive.stats()
         walking = int(np.count_nonzero(elites["distance"] >= WALKING * farthest))
@@ -187,12 +190,12 @@ def report(args: argparse.Namespace) -> None:
     save_png(figure, figures / "curves.png")
     seed0 = args.seeds[0]
     for method in METHODS:
-        archive, _ = archive_of(found[(method, seed0)])
+        archive, _ = archives[(method, seed0)]
         shape = found[(method, seed0)]["grids"].shape[1:]
         archive_heatmap(archive.snapshot().fitness_grid(), DESCRIPTORS,
                         descriptor_ranges(DESCRIPTORS, shape), figures / f"heatmap_{method}.png",
                         title=f"{method}, seed {seed0}: every evaluation placed")
-    elite_gallery(read_archive(args.root / "map-elites" / f"seed_{seed0}" / "archive.npz"),
+    elite_gallery(archives[("map-elites", seed0)][0].snapshot(), DESCRIPTORS,
                   figures / "gallery_map_elites.png", overwrite=True)
     write_markdown(args, rows, farthest)
 

@@ -11,9 +11,11 @@ checkpoint: resuming it returns its summary at once (`mjregen.search.runs.run_ev
 the regrowth experiment's walkers (``runs/results/walkers``): walkers.json and their NCAs and
 robots. Of a quality-diversity comparison's run (``runs/qd/<method>/seed_<n>``, a folder with
 ``evaluations/``), into records/qd/: a GA run as above, a MAP-Elites run with its
-config.json, metrics.csv, archive.npz, best.npz/.npy and, while unfinished, checkpoint.npz
+config.json, metrics.csv, best.npz/.npy and, while unfinished, checkpoint.npz
 (`mjregen.search.qd_runs.run_map_elites` resumes a finished record to its summary), each
-with every recorded evaluation. The copy replaces the earlier record.
+with every recorded evaluation, from which the comparison's report places its archive
+(the archive.npz of a run, every elite's genome, megabytes, is left out). The copy
+replaces the earlier record.
 
 Example: python scripts/snapshot_runs.py runs/results/3d_lstm/seed_0 runs/results/walkers
 """
@@ -39,7 +41,7 @@ DESTINATION = ROOT / "records" / "results"
 QD_DESTINATION = ROOT / "records" / "qd"
 RECOVERY_FILES = ("recovery.json", "recovery.md", "regrowth.npz", "original.npy", "damaged.npy",
                   "regrown.npy")
-MAP_ELITES_FILES = ("config.json", "metrics.csv", "archive.npz", "best.npz", "best.npy")
+MAP_ELITES_FILES = ("config.json", "metrics.csv", "best.npz", "best.npy")
 
 
 def _replace(target: Path, fill: Callable[[Path], None]) -> Path:

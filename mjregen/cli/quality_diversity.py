@@ -117,7 +117,8 @@ def run_map_elites_command(args: argparse.Namespace) -> int:
         from mjregen.search.qd_runs import read_archive
 
         try:
-            gallery = elite_gallery(read_archive(summary.out / "archive.npz"),
+            archive = read_archive(summary.out / "archive.npz")
+            gallery = elite_gallery(archive.snapshot, archive.descriptors,
                                     summary.out / "gallery.png", physics=physics,
                                     overwrite=True)
         except ValueError as error:  # nothing with voxels in the archive

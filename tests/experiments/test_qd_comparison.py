@@ -45,6 +45,7 @@ def test_qd_records_give_the_same_report_and_resume_without_evaluating(tmp_path)
     assert (ga, me) == (records / "ga" / "seed_0", records / "map-elites" / "seed_0")
     # finished runs are kept without their checkpoints (MAP-Elites': megabytes of pickles)
     assert not (ga / "checkpoint.npz").exists() and not (me / "checkpoint.npz").exists()
+    assert not (me / "archive.npz").exists()  # the report places the evaluations itself
     for record in (ga, me):
         assert sorted((record / "evaluations").iterdir()) != []
         assert ([p.name for p in sorted((record / "evaluations").iterdir())]
@@ -68,5 +69,5 @@ def test_qd_records_give_the_same_report_and_resume_without_evaluating(tmp_path)
     assert {p: p.read_bytes() for p in restored.rglob("*") if p.is_file()} == before
     with pytest.raises(FileNotFoundError, match="checkpoint.npz: nothing to resume"):
         snapshot_runs.snapshot_map_elites(restored / "map-elites" / "seed_0", tmp_path / "again")
-    with pytest.raises(FileNotFoundError, match="archive.npz"):
+    with pytest.raises(FileNotFoundError, match="best.npz"):
         snapshot_runs.snapshot_map_elites(ga, tmp_path / "elsewhere")
