@@ -23,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
+from engine_runs import load_vxa  # benchmarks/, beside this file
 from mjregen.experiments.regrowth import replay_regrowth
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -30,12 +31,17 @@ REGEN = ROOT / "assets" / "regen"
 ROLES = ("original", "damaged", "regrown")
 
 
-def load_module(name: str, path: Path):
-    spec = importlib.util.spec_from_file_location(name, path)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module  # its dataclasses look their module up there
-    spec.loader.exec_module(module)
-    return module
+def paper_table_1() -> dict[str, dict]:
+    """The paper's Table 1 rows by robot name, their network as "ff" or "lstm" (the copy of
+    the table in scripts/results_report.py)."""
+    spec = importlib.util.spec_from_file_location("results_report",
+                                                  ROOT / "scripts" / "results_report.py")
+    report = importlib.util.module_from_spec(spec)
+    sys.modules["results_report"] = report  # its dataclasses look their module up there
+    spec.loader.exec_module(report)
+    networks = {"feed forward": "ff", "recurrent": "lstm"}
+    return {r["robot"].lower(): {**r, "network": networks[r["network"]]}
+            for r in report.parse_table_1(report.TABLE_1_LATEX)}
 
 
 def measure(engine, manifest: dict) -> list[dict]:
@@ -51,8 +57,9 @@ def measure(engine, manifest: dict) -> list[dict]:
             row[role] = {"voxels": int((grid > 0).sum()), "mjregen": replay.report.distance[role],
                          "engine": float(engine(grid)["distance"])}
         rows.append(row)
-        print(f"{name}: " + ", ".join(f"{r} {row[r]['engine']:.3g} (mjregen {row[r]['mjregen']:.3g})"
-                                      for r in ROLES), flush=True)
+        print(f"{name}: " + ", ".join(f"{r} {row[r]['engine']:.3g} "
+                                      f"(mjregen {row[r]['mjregen']:.3g})" for r in ROLES),
+              flush=True)
     return rows
 
 
@@ -102,14 +109,9 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if not (args.voxelyze / "vxa.py").is_file():
         parser.error(f"{args.voxelyze} holds no vxa.py")
-    engine = load_module("vxa", args.voxelyze / "vxa.py").run
-    report = load_module("results_report", ROOT / "scripts" / "results_report.py")
-    networks = {"feed forward": "ff", "recurrent": "lstm"}
-    paper = {r["robot"].lower(): {**r, "network": networks[r["network"]]}
-             for r in report.parse_table_1(report.TABLE_1_LATEX)}
-    rows = measure(engine, json.loads((REGEN / "manifest.json").read_text()))
+    rows = measure(load_vxa(args.voxelyze).run, json.loads((REGEN / "manifest.json").read_text()))
     command = "python benchmarks/regrowth_engine.py --voxelyze DIR"
-    args.out.write_text(markdown(rows, paper, command))
+    args.out.write_text(markdown(rows, paper_table_1(), command))
     if args.json:
         args.json.write_text(json.dumps(rows, indent=1))
     print(f"wrote {args.out}")
