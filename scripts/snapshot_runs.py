@@ -45,13 +45,20 @@ MAP_ELITES_FILES = ("config.json", "metrics.csv", "best.npz", "best.npy")
 
 
 def _replace(target: Path, fill: Callable[[Path], None]) -> Path:
-    """Fill a staging folder beside `target`, then put it in `target`'s place."""
+    """Fill a staging folder beside `target`, then put it in `target`'s place by renames:
+    until the new record is complete the earlier one is untouched, and at every moment one
+    of them is whole on disk (the earlier one, moved aside, is deleted last)."""
     staging = target.with_name(target.name + ".partial")
+    previous = target.with_name(target.name + ".previous")
     shutil.rmtree(staging, ignore_errors=True)
     staging.mkdir(parents=True)
     fill(staging)
-    shutil.rmtree(target, ignore_errors=True)
+    if previous.exists() and target.exists():
+        shutil.rmtree(previous)  # left by an interrupted swap whose new record is in place
+    if target.exists():
+        target.rename(previous)
     staging.rename(target)
+    shutil.rmtree(previous, ignore_errors=True)
     return target
 
 

@@ -146,6 +146,29 @@ def test_a_snapshot_of_an_unfinished_run_resumes_to_the_uninterrupted_run(tmp_pa
         snapshot_runs.snapshot(tmp_path / "nothing", tmp_path / "records")
 
 
+def test_a_snapshot_that_fails_leaves_the_earlier_record_whole(tmp_path):
+    record = tmp_path / "records" / "2d_ff" / "seed_0"
+    record.mkdir(parents=True)
+    (record / "metrics.csv").write_text("earlier\n")
+
+    def broken(staging: Path) -> None:
+        (staging / "metrics.csv").write_text("half")
+        raise OSError("disk full")
+
+    with pytest.raises(OSError, match="disk full"):
+        snapshot_runs._replace(record, broken)
+    assert (record / "metrics.csv").read_text() == "earlier\n"
+    # the swap itself: the new record replaces it, nothing of either is left beside it
+    snapshot_runs._replace(record, lambda staging: (staging / "metrics.csv").write_text("new\n"))
+    assert (record / "metrics.csv").read_text() == "new\n"
+    assert sorted(p.name for p in record.parent.iterdir()) == ["seed_0"]
+    # a swap interrupted after moving the earlier record aside: the next snapshot finishes it
+    record.rename(record.with_name("seed_0.previous"))
+    snapshot_runs._replace(record, lambda staging: (staging / "metrics.csv").write_text("3\n"))
+    assert (record / "metrics.csv").read_text() == "3\n"
+    assert sorted(p.name for p in record.parent.iterdir()) == ["seed_0"]
+
+
 def test_a_finished_record_without_its_best_nca_is_a_clear_error(tmp_path):
     job, = ex.evolution_jobs(SMOKE, root=tmp_path / "runs", conditions=["2d_ff"], runs=1,
                              generations=2)
