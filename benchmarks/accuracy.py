@@ -19,7 +19,9 @@ also run alone, writing their CSV and printing a table:
 
 ``chaos``: for each paper robot over the paper's window, the spread of the distance over 20
   runs from initial positions shifted by 1e-9 voxel lengths, over 8 time-step safeties, and
-  the default's difference from a run at an 8th of its step. Writes ``accuracy_chaos.csv``.
+  the default's difference from a run at an 8th of its step; for each shipped evolved 3D
+  walker, the distances from the same shifted starts and safeties. Writes
+  ``accuracy_chaos.csv`` and ``accuracy_walkers.csv``.
 
 ``skips``: the CPU time of the work the voxel plugin leaves out where a robot does not need
   it (the muscle drive, the collision stage, a hard voxel's step), against the same robot
@@ -791,6 +793,79 @@ def chaos_rows(results: dict) -> list[dict]:
     return rows
 
 
+# the shipped evolved 3D walkers (the GA's own robots, where the start may matter more than
+# for the paper's): the default walkers of each network and the regrowth experiment's others
+EVOLVED_WALKERS = {
+    "walker_3d_ff": ROOT / "assets" / "nca" / "walker_3d_ff.npy",
+    "walker_3d_lstm": ROOT / "assets" / "nca" / "walker_3d_lstm.npy",  # = walkers/walker_1
+    "walker_2": ROOT / "assets" / "robots" / "walkers" / "walker_2.npy",
+    "walker_3": ROOT / "assets" / "robots" / "walkers" / "walker_3.npy",
+}
+KEPT = 0.9  # a walker whose shifted starts walk less than this of its default needs its start
+WALKER_FIELDS = ["robot", "voxels", "mirror", "default",
+                 *(f"shift_{p:g}_{stat}" for p in PERTURBATIONS for stat in ("mean", "min", "max")),
+                 "safeties_median", "safeties_min", "safeties_max"]
+
+
+def mirror_planes(robot: Robot) -> str:
+    """The axes ("x", "y") across which the robot's body (its bounding box, materials
+    included) is its own mirror image, comma-separated, or "none"."""
+    grid = robot.grid
+    box = tuple(slice(i.min(), i.max() + 1) for i in np.nonzero(grid))
+    body = grid[box]
+    planes = [name for axis, name in ((0, "x"), (1, "y"))
+              if np.array_equal(body, np.flip(body, axis=axis))]
+    return ", ".join(planes) or "none"
+
+
+def walker_chaos_jobs() -> list[tuple]:
+    """(key, Run) of the paper's window for each of EVOLVED_WALKERS: the default run,
+    PERTURBED_RUNS runs from starts shifted by each of PERTURBATIONS, one run per
+    CHAOS_SAFETIES (the paper robots' study without the step ladders)."""
+    jobs = []
+    for name, path in EVOLVED_WALKERS.items():
+        physics = BASE["physics"]
+        base = Run(robot=Robot.load(path), physics=physics, settle=SETTLE, measured=0.5)
+        jobs.append(((name, "default", 0), base))
+        jobs += [((name, f"shift {size:g}", k), replace(base, perturb=size, seed=k))
+                 for size in PERTURBATIONS for k in range(1, PERTURBED_RUNS + 1)]
+        jobs += [((name, "safety", s), replace(base, physics=physics.replace(
+            timestep_safety=s))) for s in CHAOS_SAFETIES]
+    return jobs
+
+
+def walker_rows(results: dict, robots: dict[str, Robot]) -> list[dict]:
+    """Per walker of `robots` (voxel lengths): the default distance, the mean and range of
+    the distances from the starts shifted by each size, the range over the safeties."""
+    rows = []
+    for name, robot in robots.items():
+        def runs(kind: str) -> np.ndarray:
+            return np.array([out["distance"] for key, out in results.items()
+                             if key[0] == name and key[1] == kind and out["stable"]])
+        row = {"robot": name, "voxels": robot.n_voxels, "mirror": mirror_planes(robot),
+               "default": round(results[(name, "default", 0)]["distance"], 4)}
+        for size in PERTURBATIONS:
+            shifted = runs(f"shift {size:g}")
+            row.update({f"shift_{size:g}_mean": round(float(shifted.mean()), 3),
+                        f"shift_{size:g}_min": round(float(shifted.min()), 3),
+                        f"shift_{size:g}_max": round(float(shifted.max()), 3)})
+        steps = runs("safety")
+        row.update(safeties_median=round(float(np.median(steps)), 3),
+                   safeties_min=round(float(steps.min()), 3),
+                   safeties_max=round(float(steps.max()), 3))
+        rows.append(row)
+    return rows
+
+
+def chaos_studies(n_jobs: int) -> tuple[list[dict], list[dict]]:
+    """The paper robots' chaos rows and the evolved walkers' rows, from one pool of runs."""
+    paper_jobs, walker_jobs = chaos_jobs(), walker_chaos_jobs()
+    results = run_jobs(paper_jobs + walker_jobs, n_jobs, cost=_run_cost)
+    walkers = {name: Robot.load(path) for name, path in EVOLVED_WALKERS.items()}
+    paper = {key: out for key, out in results.items() if key[0] not in walkers}
+    return chaos_rows(paper), walker_rows(results, walkers)
+
+
 # ---------------------------------------------------------------------------- skips
 
 SKIP_ROUNDS = 5
@@ -866,8 +941,46 @@ def _default_rows(rows: list[dict], variant: str, safety: float) -> dict[str, di
             and float(r["safety"]) == safety}
 
 
+def walker_section(walkers: list[dict]) -> str:
+    """The report's paragraph on the evolved walkers' starts (`walker_rows`)."""
+    first = PERTURBATIONS[0]
+    lines = ["| walker | voxels | mirror plane of the body | default | "
+             + " | ".join(f"shifted {p:g} L: mean (min–max)" for p in PERTURBATIONS)
+             + " | 8 safeties: median (min–max) |", "|---" * (5 + len(PERTURBATIONS)) + "|"]
+    fragile, mirrored = [], []
+    for w in walkers:
+        shifts = " | ".join(f"{w[f'shift_{p:g}_mean']} ({w[f'shift_{p:g}_min']}–"
+                            f"{w[f'shift_{p:g}_max']})" for p in PERTURBATIONS)
+        lines.append(f"| {w['robot']} | {w['voxels']} | {w['mirror']} | {w['default']} | "
+                     f"{shifts} | {w['safeties_median']} ({w['safeties_min']}–"
+                     f"{w['safeties_max']}) |")
+        kept = float(w[f"shift_{first:g}_mean"]) / float(w["default"])
+        if kept < KEPT:
+            fragile.append(f"{w['robot']} ({100 * kept:.0f} %)")
+            if w["mirror"] != "none":
+                mirrored.append(w["robot"])
+    mirror_note = (f" A body with a mirror plane ({', '.join(mirrored)}) keeps its mirror "
+                   "symmetry from it to rounding (nothing in the physics breaks it) and loses "
+                   "that motion once a shift of a rounding's size does."
+                   if mirrored else "")
+    verdict = (f"Walkers that keep less than {100 * KEPT:.0f} % of their default distance "
+               f"from starts shifted by {first:g} L: {', '.join(fragile)}. The GA scores "
+               "every robot from one unperturbed start, so it can select a gait that only "
+               f"that start produces.{mirror_note} Such a fitness belongs partly to the start, "
+               "not to the body: judge evolved robots by their shifted starts' distances as "
+               "well." if fragile else
+               f"Every walker keeps at least {100 * KEPT:.0f} % of its default distance from "
+               f"starts shifted by {first:g} L.")
+    return (f"### The shipped evolved walkers\nThe same {PERTURBED_RUNS} shifted starts per "
+            f"size ({', '.join(f'{p:g}' for p in PERTURBATIONS)} voxel lengths) and the 8 "
+            "safeties for each shipped evolved 3D walker (`assets/nca/`, "
+            "`assets/robots/walkers/`), over the paper's window; distances in voxel "
+            "lengths:\n\n" + "\n".join(lines) + "\n\n" + verdict)
+
+
 def report_text(accuracy: list[dict], orders: list[dict], stability: list[dict],
-                chaos: list[dict], skips: list[dict], minutes: float | None,
+                chaos: list[dict], walkers: list[dict], skips: list[dict],
+                minutes: float | None,
                 engine: bool) -> str:
     """docs/accuracy.md from the studies' rows; `minutes`: the wall time of a run of every
     study, None when some were taken from their CSVs."""
@@ -1009,8 +1122,8 @@ depend on the step). Distances in voxel lengths:
 
 A start shifted by {PERTURBATIONS[0]:g} voxel lengths moves the distance by {low:.1g}–{high:.1g}
 (an amplification of {low / PERTURBATIONS[0]:.0f}–{high / PERTURBATIONS[0]:.0f}), one shifted by
-{PERTURBATIONS[-1]:g} by up to {top:.2g}: the walks respond to their start, but a rounding
-stays far below the time step's effect, which is what moves a fitness.
+{PERTURBATIONS[-1]:g} by up to {top:.2g}: the paper robots' walks respond to their start, but a
+rounding stays far below the time step's effect, which is what moves a fitness.
 A contact's stick or slip is decided within a step (a sliding voxel stops when the step's friction impulse reaches its momentum, a threshold
 speed proportional to the step), so a longer step can flip one such event and with it a
 stride; as the step shrinks the momentum and energy rules converge to the same limit (the
@@ -1026,6 +1139,8 @@ The engine's rule stays within {engine_band} of the engine at both steps; the fi
 falls to {fixed_low:.2f} at the shorter one. So the default keeps the engine's rule.
 Selection in an evolution compares robots at one step, so what matters is whether their
 differences exceed the step's effect above.
+
+{walker_section(walkers)}
 
 ## What a scene leaves out
 The voxel plugin does only the work a robot needs: no muscle drive without muscles; no
@@ -1088,18 +1203,19 @@ def write_report(out: Path, n_jobs: int, voxelyze: Path | None, reuse: bool = Fa
         with multiprocessing.get_context("fork").Pool(n_jobs) as pool:
             stability = pool.map(_stability_job, [(c, "") for c in cases])
         write_csv(out / "accuracy_stability.csv", stability, STABILITY_FIELDS)
-    chaos = kept("accuracy_chaos.csv")
-    if chaos is None:
-        chaos = chaos_rows(run_jobs(chaos_jobs(), n_jobs, cost=_run_cost))
+    chaos, walkers = kept("accuracy_chaos.csv"), kept("accuracy_walkers.csv")
+    if chaos is None or walkers is None:
+        chaos, walkers = chaos_studies(n_jobs)
         write_csv(out / "accuracy_chaos.csv", chaos, CHAOS_FIELDS)
+        write_csv(out / "accuracy_walkers.csv", walkers, WALKER_FIELDS)
     skips = kept("accuracy_skips.csv")
     if skips is None:
         skips = skip_rows()
         write_csv(out / "accuracy_skips.csv", skips, SKIP_FIELDS)
     minutes = None if reused else (time.perf_counter() - wall0) / 60
     engine = any(r["integrator"] == "paper engine" for r in rows)
-    (out / "accuracy.md").write_text(report_text(rows, orders, stability, chaos, skips,
-                                                 minutes, engine))
+    (out / "accuracy.md").write_text(report_text(rows, orders, stability, chaos, walkers,
+                                                 skips, minutes, engine))
 
 
 # ---------------------------------------------------------------------------- main
@@ -1146,9 +1262,11 @@ def main(argv: list[str] | None = None) -> None:
         write_csv(args.out / f"accuracy_skips{suffix}.csv", rows, SKIP_FIELDS)
         print(markdown(rows, SKIP_FIELDS))
     elif args.study == "chaos":
-        rows = chaos_rows(run_jobs(chaos_jobs(), args.jobs, cost=_run_cost))
+        rows, walkers = chaos_studies(args.jobs)
         write_csv(args.out / f"accuracy_chaos{suffix}.csv", rows, CHAOS_FIELDS)
+        write_csv(args.out / f"accuracy_walkers{suffix}.csv", walkers, WALKER_FIELDS)
         print(markdown(rows, CHAOS_FIELDS))
+        print(markdown(walkers, WALKER_FIELDS))
     elif args.study == "accuracy":
         jobs = accuracy_jobs(variants=tuple(args.variants.split(",")),
                              full_window=args.full_window, quick=args.quick)

@@ -200,6 +200,38 @@ def test_perturbed_start_shifts_only_the_positions_by_the_given_size():
     assert np.std(shifted[0][:, :3]) == pytest.approx(1e-12, rel=0.2)
 
 
+def test_mirror_planes_of_a_body_are_found_in_its_bounding_box():
+    plate = np.zeros((7, 7, 7), dtype=np.int8)
+    plate[2:5, 2, 1:3] = 3  # one voxel thick in y, off-centre in the grid
+    assert accuracy.mirror_planes(Robot(plate)) == "x, y"
+    plate[2, 2, 1] = 4  # a different material at one end: no longer mirrored in x
+    assert accuracy.mirror_planes(Robot(plate)) == "y"
+    plate[2:5, 3, 1] = 1  # a second, partial layer: no mirror plane across y either
+    assert accuracy.mirror_planes(Robot(plate)) == "none"
+
+
+def test_walker_rows_summarise_shifted_starts_and_safeties():
+    def out(distance, stable=True):
+        return {"distance": distance, "dt": 1e-5, "stable": stable}
+
+    robot = Robot.from_body(np.ones((2, 1, 1), dtype=np.int8))
+    results = {("w", "default", 0): out(40.0)}
+    for size in accuracy.PERTURBATIONS:
+        for k, d in enumerate((20.0, 30.0, 40.0), start=1):
+            results[("w", f"shift {size:g}", k)] = out(d)
+        results[("w", f"shift {size:g}", 4)] = out(float("nan"), stable=False)
+    for s, d in ((0.5, 38.0), (0.75, 40.0), (0.8, 45.0)):
+        results[("w", "safety", s)] = out(d)
+    (row,) = accuracy.walker_rows(results, {"w": robot})
+    assert (row["robot"], row["voxels"], row["default"]) == ("w", 2, 40.0)
+    for size in accuracy.PERTURBATIONS:  # the unstable run is left out
+        assert [row[f"shift_{size:g}_{k}"] for k in ("mean", "min", "max")] == [30.0, 20.0, 40.0]
+    assert (row["safeties_median"], row["safeties_min"], row["safeties_max"]) == (40.0, 38.0,
+                                                                               45.0)
+    text = accuracy.walker_section([row])
+    assert "w (75 %)" in text  # 30 of 40 from the smallest shift: below accuracy.KEPT
+
+
 def test_chaos_rows_summarise_the_runs_of_each_robot():
     """Per robot: the shifted starts' spread per size, the safeties' range, each friction
     rule's step ladder (the default rule's starts with the default run), the limit from
