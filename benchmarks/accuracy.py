@@ -732,28 +732,44 @@ CHAOS_FIELDS = ["robot", "default", *(f"shift_{p:g}_std" for p in PERTURBATIONS)
                 "default_error"]
 
 
-def chaos_jobs() -> list[tuple]:
-    """(key, Run) of the paper's window (0.05 + 0.5 s) for each paper robot: the default;
+def start_and_step_jobs(name: str, robot: Robot) -> list[tuple]:
+    """(key, Run) of the paper's window (0.05 + 0.5 s) for `robot`: the default;
     PERTURBED_RUNS runs from initial positions shifted by each of PERTURBATIONS; one run
-    per CHAOS_SAFETIES; and the step ladder, the default step halved 0 … HALVINGS times,
-    with each friction stop rule of LADDERS (the default's rung 0 is the default run)."""
+    per CHAOS_SAFETIES."""
+    physics = BASE["physics"]
+    base = Run(robot=robot, physics=physics, settle=SETTLE, measured=0.5)
+    jobs = [((name, "default", 0), base)]
+    jobs += [((name, f"shift {size:g}", k), replace(base, perturb=size, seed=k))
+             for size in PERTURBATIONS for k in range(1, PERTURBED_RUNS + 1)]
+    jobs += [((name, "safety", s), replace(base, physics=physics.replace(
+        timestep_safety=s))) for s in CHAOS_SAFETIES]
+    return jobs
+
+
+def chaos_jobs() -> list[tuple]:
+    """(key, Run) for each paper robot: `start_and_step_jobs`, and the step ladder, the
+    default step halved 0 … HALVINGS times, with each friction stop rule of LADDERS (the
+    default's rung 0 is the default run)."""
     jobs = []
     for name in ("tripod", "biped", "multiped"):
         robot = paper_robot(name)
         physics = BASE["physics"]
         base = Run(robot=robot, physics=physics, settle=SETTLE, measured=0.5)
         safety = physics.scene.timestep_safety
-        jobs.append(((name, "default", 0), base))
-        jobs += [((name, f"shift {size:g}", k), replace(base, perturb=size, seed=k))
-                 for size in PERTURBATIONS for k in range(1, PERTURBED_RUNS + 1)]
-        jobs += [((name, "safety", s), replace(base, physics=physics.replace(
-            timestep_safety=s))) for s in CHAOS_SAFETIES]
+        jobs += start_and_step_jobs(name, robot)
         for rule, changes in LADDERS.items():
             start = 1 if physics.replace(**changes) == physics else 0
             for k in range(start, HALVINGS + 1):
                 jobs.append(((name, f"ladder {rule}", k), replace(base, physics=physics.replace(
                     timestep_safety=safety / 2 ** k, **changes))))
     return jobs
+
+
+def stable_distances(results: dict, name: str, kind: str) -> dict:
+    """{run number: distance} of `name`'s stable runs of `kind` ("default", "shift 1e-09",
+    "safety", "ladder momentum", ...) in `results`."""
+    return {key[2]: out["distance"] for key, out in results.items()
+            if key[0] == name and key[1] == kind and out["stable"]}
 
 
 def chaos_rows(results: dict) -> list[dict]:
@@ -766,8 +782,7 @@ def chaos_rows(results: dict) -> list[dict]:
     physics = BASE["physics"]
     for name in dict.fromkeys(key[0] for key in results):
         def runs(kind: str) -> dict:
-            return {key[2]: out["distance"] for key, out in results.items()
-                    if key[0] == name and key[1] == kind and out["stable"]}
+            return stable_distances(results, name, kind)
         default = results[(name, "default", 0)]["distance"]
         steps = np.array(list(runs("safety").values()))
         row = {"robot": name, "default": round(default, 4)}
@@ -818,30 +833,13 @@ def mirror_planes(robot: Robot) -> str:
     return ", ".join(planes) or "none"
 
 
-def walker_chaos_jobs() -> list[tuple]:
-    """(key, Run) of the paper's window for each of EVOLVED_WALKERS: the default run,
-    PERTURBED_RUNS runs from starts shifted by each of PERTURBATIONS, one run per
-    CHAOS_SAFETIES (the paper robots' study without the step ladders)."""
-    jobs = []
-    for name, path in EVOLVED_WALKERS.items():
-        physics = BASE["physics"]
-        base = Run(robot=Robot.load(path), physics=physics, settle=SETTLE, measured=0.5)
-        jobs.append(((name, "default", 0), base))
-        jobs += [((name, f"shift {size:g}", k), replace(base, perturb=size, seed=k))
-                 for size in PERTURBATIONS for k in range(1, PERTURBED_RUNS + 1)]
-        jobs += [((name, "safety", s), replace(base, physics=physics.replace(
-            timestep_safety=s))) for s in CHAOS_SAFETIES]
-    return jobs
-
-
 def walker_rows(results: dict, robots: dict[str, Robot]) -> list[dict]:
     """Per walker of `robots` (voxel lengths): the default distance, the mean and range of
     the distances from the starts shifted by each size, the range over the safeties."""
     rows = []
     for name, robot in robots.items():
         def runs(kind: str) -> np.ndarray:
-            return np.array([out["distance"] for key, out in results.items()
-                             if key[0] == name and key[1] == kind and out["stable"]])
+            return np.array(list(stable_distances(results, name, kind).values()))
         row = {"robot": name, "voxels": robot.n_voxels, "mirror": mirror_planes(robot),
                "default": round(results[(name, "default", 0)]["distance"], 4)}
         for size in PERTURBATIONS:
@@ -859,9 +857,10 @@ def walker_rows(results: dict, robots: dict[str, Robot]) -> list[dict]:
 
 def chaos_studies(n_jobs: int) -> tuple[list[dict], list[dict]]:
     """The paper robots' chaos rows and the evolved walkers' rows, from one pool of runs."""
-    paper_jobs, walker_jobs = chaos_jobs(), walker_chaos_jobs()
-    results = run_jobs(paper_jobs + walker_jobs, n_jobs, cost=_run_cost)
     walkers = {name: Robot.load(path) for name, path in EVOLVED_WALKERS.items()}
+    jobs = chaos_jobs() + [job for name, robot in walkers.items()
+                           for job in start_and_step_jobs(name, robot)]
+    results = run_jobs(jobs, n_jobs, cost=_run_cost)
     paper = {key: out for key, out in results.items() if key[0] not in walkers}
     return chaos_rows(paper), walker_rows(results, walkers)
 
