@@ -809,9 +809,11 @@ def chaos_rows(results: dict) -> list[dict]:
 
 
 # the shipped evolved 3D walkers (the GA's own robots, where the start may matter more than
-# for the paper's): the default walkers of each network and the regrowth experiment's others
+# for the paper's): the default walkers of each network and the regrowth experiment's others,
+# and the best robot of 3d_ff seed 1 (a mirror-symmetric plate, kept in records/)
 EVOLVED_WALKERS = {
     "walker_3d_ff": ROOT / "assets" / "nca" / "walker_3d_ff.npy",
+    "3d_ff_seed_1": ROOT / "records" / "results" / "3d_ff" / "seed_1" / "best" / "gen_0269.npy",
     "walker_3d_lstm": ROOT / "assets" / "nca" / "walker_3d_lstm.npy",  # = walkers/walker_1
     "walker_2": ROOT / "assets" / "robots" / "walkers" / "walker_2.npy",
     "walker_3": ROOT / "assets" / "robots" / "walkers" / "walker_3.npy",
@@ -973,7 +975,8 @@ def walker_section(walkers: list[dict]) -> str:
     return (f"### The shipped evolved walkers\nThe same {PERTURBED_RUNS} shifted starts per "
             f"size ({', '.join(f'{p:g}' for p in PERTURBATIONS)} voxel lengths) and the 8 "
             "safeties for each shipped evolved 3D walker (`assets/nca/`, "
-            "`assets/robots/walkers/`), over the paper's window; distances in voxel "
+            "`assets/robots/walkers/`) and the best robot of 3d_ff seed 1 "
+            "(`records/results/3d_ff/seed_1`), over the paper's window; distances in voxel "
             "lengths:\n\n" + "\n".join(lines) + "\n\n" + verdict)
 
 

@@ -598,8 +598,8 @@ class Report:
             low, high = min(r["original"] for r in rows), max(r["original"] for r in rows)
             self.facts.append(
                 f"Farthest 3D walker of the best runs: {fmt_distance(best[0], 4)} voxel lengths in 0.5 s "
-                f"({best[1]}); the paper's walkers in Table 1 went {low:g}–{high:g} "
-                f"({100 * best[0] / high:.2g}–{100 * best[0] / low:.2g} % of that).")
+                f"({best[1]}), {100 * best[0] / high:.0f}–{100 * best[0] / low:.0f} % of what the "
+                f"paper's walkers in Table 1 went ({low:g}–{high:g}).")
         best2d = [(_best_distance(ex.best_run(self.runs[n])), n) for n in ("2d_ff", "2d_lstm")
                   if n in self.runs]
         best2d = [b for b in best2d if math.isfinite(b[0])]
