@@ -1,20 +1,35 @@
 """Time NCA growth of a 3D population: batched vs one individual at a time.
 
-    python benchmarks/growth.py [--population 100] [--repeats 7] [--threads N] [--json out.json]
+    python benchmarks/growth.py [--population 100] [--repeats 7] [--threads N] [--load N]
+        [--openmp-default] [--json out.json]
 
 Prints, per network kind, the median wall and CPU seconds of growing the whole population
 (10 steps + cleaning) in one batched call and as P separate calls. Random genomes
 N(0, 0.1^2) from a fixed seed; every run grows the same robots.
+
+`--load N` keeps N other processes busy meanwhile, as another run on the same cores or other
+jobs on a cluster node do. torch's OpenMP threads then wait for each other between
+operations: importing mjregen sets ``OMP_WAIT_POLICY=PASSIVE`` (unless it is set), so they
+sleep instead of spinning; `--openmp-default` loads torch before mjregen, so that its
+OpenMP keeps its own default, which spins.
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib
 import json
+import multiprocessing
+import os
 import statistics
+import sys
 import time
 
-import torch
+if "--openmp-default" in sys.argv:  # before mjregen: OpenMP reads its policy as torch loads
+    importlib.import_module("torch")
+
+import mjregen  # noqa: E402  (sets the OpenMP wait policy unless torch is loaded)
+import torch  # noqa: E402
 
 from mjregen.growth.nca import NCAConfig, grow
 from mjregen.growth.networks import random_genomes
@@ -31,17 +46,35 @@ def _time(fn, repeats: int) -> dict[str, float]:
     return {"wall_s": statistics.median(walls), "cpu_s": statistics.median(cpus)}
 
 
+def _busy() -> None:
+    """A CPU-bound process: the load `--load` puts beside the growth."""
+    while True:
+        pass
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--population", type=int, default=100)
     parser.add_argument("--repeats", type=int, default=7)
     parser.add_argument("--threads", type=int, help="torch intra-op threads (default: torch's)")
+    parser.add_argument("--load", type=int, default=0,
+                        help="other busy processes during the timing (default 0)")
+    parser.add_argument("--openmp-default", action="store_true",
+                        help="keep OpenMP's own wait policy (torch loaded before mjregen)")
     parser.add_argument("--json", help="also write the results to this JSON file")
     args = parser.parse_args()
     if args.threads:
         torch.set_num_threads(args.threads)
-    results = {"population": args.population, "threads": torch.get_num_threads(), "runs": []}
+    policy = "OpenMP's default" if args.openmp_default else os.environ["OMP_WAIT_POLICY"]
+    load = [multiprocessing.get_context("spawn").Process(target=_busy, daemon=True)
+            for _ in range(args.load)]
+    for process in load:
+        process.start()
+    results = {"mjregen": mjregen.__version__, "population": args.population,
+               "threads": torch.get_num_threads(),
+               "load": args.load, "wait_policy": policy, "runs": []}
     print(f"3D growth of {args.population} robots, torch threads {torch.get_num_threads()}, "
+          f"OpenMP wait policy {policy}, {args.load} busy processes beside it, "
           f"median of {args.repeats}")
     print(f"{'net':5s} {'mode':14s} {'wall s':>8s} {'cpu s':>8s}")
     for kind in ("ff", "lstm"):
@@ -55,6 +88,8 @@ def main() -> None:
             timing = _time(fn, args.repeats)
             results["runs"].append({"net": kind, "mode": mode, **timing})
             print(f"{kind:5s} {mode:14s} {timing['wall_s']:8.3f} {timing['cpu_s']:8.3f}")
+    for process in load:
+        process.terminate()
     if args.json:
         with open(args.json, "w") as f:
             json.dump(results, f, indent=2)

@@ -2,6 +2,9 @@
 
 import itertools
 import math
+import os
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -326,3 +329,16 @@ def test_checkpoint_errors(tmp_path):
              metadata=np.array("{}"), genome=nca.genome)
     with pytest.raises(CheckpointError):
         load_nca(pickled)
+
+
+@pytest.mark.parametrize("preset, expected", [(None, "PASSIVE"), ("ACTIVE", "ACTIVE")])
+def test_importing_mjregen_makes_torchs_openmp_threads_wait_passively(preset, expected):
+    """Set before torch loads (OpenMP reads it then); a user's own setting stands."""
+    env = {k: v for k, v in os.environ.items() if k != "OMP_WAIT_POLICY"}
+    if preset is not None:
+        env["OMP_WAIT_POLICY"] = preset
+    check = ("import os, sys, mjregen; assert 'torch' not in sys.modules; "
+             "from mjregen.growth import nca; print(os.environ['OMP_WAIT_POLICY'])")
+    out = subprocess.run([sys.executable, "-c", check], env=env, capture_output=True,
+                         text=True, check=True)
+    assert out.stdout.strip() == expected
