@@ -25,6 +25,7 @@ import statistics
 import sys
 import time
 
+OWN_POLICY = os.environ.get("OMP_WAIT_POLICY")  # the caller's, if any: it stands
 if "--openmp-default" in sys.argv:  # before mjregen: OpenMP reads its policy as torch loads
     importlib.import_module("torch")
 
@@ -65,7 +66,7 @@ def main() -> None:
     args = parser.parse_args()
     if args.threads:
         torch.set_num_threads(args.threads)
-    policy = "OpenMP's default" if args.openmp_default else os.environ["OMP_WAIT_POLICY"]
+    policy = OWN_POLICY or ("OpenMP's default" if args.openmp_default else "PASSIVE")
     load = [multiprocessing.get_context("spawn").Process(target=_busy, daemon=True)
             for _ in range(args.load)]
     for process in load:
