@@ -21,6 +21,7 @@ whole report (the table of `speed_before.json` as the before; ``--evolution``: t
 from __future__ import annotations
 
 import argparse
+import csv
 import datetime
 import importlib.util
 import json
@@ -245,6 +246,35 @@ def startup(rounds: int = 5) -> dict:
     return out
 
 
+RECORDS = ROOT / "records" / "results"  # the results runs' records (config, metrics)
+PAPER_SIZE = ("3d_ff", "3d_lstm")  # conditions run at the paper's 3D scale (100 x 300)
+
+
+def recorded_evolutions(root: Path = RECORDS) -> list[dict]:
+    """Per paper-size 3D evolution kept in `root` (<condition>/seed_<n>): generations done
+    of its planned ones, wall hours (the generations' own, summed), evaluations per second
+    and the wall hours of all its planned generations at that rate."""
+    runs = []
+    for condition in PAPER_SIZE:
+        for folder in sorted((root / condition).glob("seed_*")):
+            config = json.loads((folder / "config.json").read_text())
+            with open(folder / "metrics.csv", newline="") as handle:
+                rows = list(csv.DictReader(handle))
+            if not rows:
+                continue
+            elapsed = float(rows[-1]["elapsed"])
+            planned = config["ga"]["generations"]
+            runs.append({
+                "run": f"{condition} seed {config['seed']}",
+                "population": config["ga"]["population"], "generations": len(rows),
+                "planned": planned, "wall_h": elapsed / 3600,
+                "evaluations_per_s": sum(int(r["evaluations"]) for r in rows) / elapsed,
+                "simulated_per_s": sum(int(r["distinct"]) for r in rows) / elapsed,
+                "planned_h": elapsed * planned / len(rows) / 3600,
+            })
+    return runs
+
+
 def _machine() -> str:
     model = next((line.split(":", 1)[1].strip() for line in cpu_features().splitlines()
                   if line.startswith("model name")), platform.processor() or platform.machine())
@@ -270,8 +300,9 @@ def _total_ratio(report: dict, names: list[str]) -> float:
             / sum(report[n]["voxelyze_cpu_s"] for n in names))
 
 
-def performance_doc(report: dict, extra: dict, evolution: dict | None) -> str:
-    """docs/performance.md from one run of this script."""
+def performance_doc(report: dict, extra: dict, evolution: dict | None,
+                    recorded: list[dict]) -> str:
+    """docs/performance.md from one run of this script (`recorded`: `recorded_evolutions`)."""
     before = json.loads((Path(__file__).with_name("speed_before.json")).read_text())
     steps, start = extra["steps"], extra["startup"]
     paper = [n for n in report if n.startswith("paper_")]
@@ -315,6 +346,13 @@ def performance_doc(report: dict, extra: dict, evolution: dict | None) -> str:
             f"{evolution['evaluations_per_s']:.2f} evaluations per second; the paper's 300 "
             f"generations at its mean time per generation: "
             f"**{evolution['projected_paper_run_h']:.1f} h**.")
+    done = [r for r in recorded if r["generations"] == r["planned"]]
+    if done:
+        lines.append(
+            f"- The finished paper-size 3D evolutions of `records/` ({len(done)}; population "
+            f"{done[0]['population']} × {done[0]['planned']} generations, 2 worker processes): "
+            f"**{min(r['wall_h'] for r in done):.1f}–{max(r['wall_h'] for r in done):.1f} h** "
+            "of wall time each (table below).")
     lines += [
         "",
         "## Per robot",
@@ -435,6 +473,24 @@ def performance_doc(report: dict, extra: dict, evolution: dict | None) -> str:
             + " of 100; the GA's cache skips repeated genomes). Best fitness per generation: "
             + ", ".join(f"{b:.2f}" for b in evolution["best"]) + ".",
         ]
+    if recorded:
+        lines += [
+            "",
+            "## The evolutions at the paper's scale",
+            "",
+            "The results runs kept in `records/results/` (`metrics.csv`: each generation's wall "
+            "time, summed), each on 2 worker processes on the 2-core machine of its day, some "
+            "beside other work (test suites, benchmarks, another run), so the fastest is the "
+            "nearest to the machine's own rate. Evaluations count the population; the GA's "
+            "cache simulates each distinct genome once.",
+            "",
+            "| run | generations | wall h | evaluations / s | robots simulated / s | "
+            "wall h of all generations at that rate |",
+            "|---|---|---|---|---|---|",
+        ]
+        lines += [f"| {r['run']} | {r['generations']} of {r['planned']} | {r['wall_h']:.2f} | "
+                  f"{r['evaluations_per_s']:.2f} | {r['simulated_per_s']:.2f} | "
+                  f"{r['planned_h']:.2f} |" for r in recorded]
     return "\n".join(lines) + "\n"
 
 
@@ -465,7 +521,7 @@ def main() -> None:
         extra = {"startup": startup(), "steps": step_analysis({n: table[n] for n in names}),
                  "chaos": chaos(table["paper_tripod"]), "rounds": args.rounds,
                  "engine": args.voxelyze is not None}
-        args.doc.write_text(performance_doc(report, extra, evolution))
+        args.doc.write_text(performance_doc(report, extra, evolution, recorded_evolutions()))
         print(f"wrote {args.doc}")
 
 

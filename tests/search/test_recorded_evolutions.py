@@ -1,0 +1,43 @@
+"""`benchmarks/speed.py`'s summary of the paper-size evolutions kept in records/."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import sys
+from pathlib import Path
+
+import pytest
+
+_SPEC = importlib.util.spec_from_file_location(
+    "speed_benchmark", Path(__file__).resolve().parents[2] / "benchmarks" / "speed.py")
+speed = importlib.util.module_from_spec(_SPEC)
+sys.modules[_SPEC.name] = speed
+_SPEC.loader.exec_module(speed)
+
+
+def _record(folder: Path, seed: int, walls: list[float], distinct: list[int]) -> None:
+    folder.mkdir(parents=True)
+    (folder / "config.json").write_text(json.dumps(
+        {"seed": seed, "ga": {"population": 10, "generations": 4}}))
+    lines = ["generation,best,evaluations,distinct,wall_time,elapsed"]
+    elapsed = 0.0
+    for generation, (wall, count) in enumerate(zip(walls, distinct)):
+        elapsed += wall
+        lines.append(f"{generation},1.0,10,{count},{wall},{elapsed}")
+    (folder / "metrics.csv").write_text("\n".join(lines) + "\n")
+
+
+def test_rates_and_projection_come_from_the_generations_own_wall_times(tmp_path):
+    _record(tmp_path / "3d_ff" / "seed_0", 0, [10.0, 20.0, 30.0, 40.0], [10, 9, 8, 7])
+    _record(tmp_path / "3d_lstm" / "seed_3", 3, [50.0, 70.0], [10, 10])
+    (tmp_path / "grow_regrow_ff" / "seed_0").mkdir(parents=True)  # not a paper-size condition
+    finished, unfinished = speed.recorded_evolutions(tmp_path)
+    assert finished["run"] == "3d_ff seed 0" and finished["generations"] == 4
+    assert finished["wall_h"] == pytest.approx(100.0 / 3600)
+    assert finished["evaluations_per_s"] == pytest.approx(40 / 100.0)
+    assert finished["simulated_per_s"] == pytest.approx(34 / 100.0)
+    assert finished["planned_h"] == pytest.approx(finished["wall_h"])
+    assert unfinished["run"] == "3d_lstm seed 3"
+    assert (unfinished["generations"], unfinished["planned"]) == (2, 4)
+    assert unfinished["planned_h"] == pytest.approx(2 * 120.0 / 3600)  # 4 generations at 60 s
