@@ -1,37 +1,28 @@
 """Time NCA growth of a 3D population: batched vs one individual at a time.
 
     python benchmarks/growth.py [--population 100] [--repeats 7] [--threads N] [--load N]
-        [--openmp-default] [--json out.json]
+        [--json out.json]
 
 Prints, per network kind, the median wall and CPU seconds of growing the whole population
 (10 steps + cleaning) in one batched call and as P separate calls. Random genomes
 N(0, 0.1^2) from a fixed seed; every run grows the same robots.
 
 `--load N` keeps N other processes busy meanwhile, as another run on the same cores or other
-jobs on a cluster node do. torch's OpenMP threads then wait for each other between
-operations: importing mjregen sets ``OMP_WAIT_POLICY=PASSIVE`` (unless it is set), so they
-sleep instead of spinning; `--openmp-default` loads torch before mjregen, so that its
-OpenMP keeps its own default, which spins.
+jobs on a cluster node do: growth runs its batches side by side on torch's thread count,
+each on one thread, so that a thread that loses its core stalls no other.
 """
 
 from __future__ import annotations
 
 import argparse
-import importlib
 import json
 import multiprocessing
-import os
 import statistics
-import sys
 import time
 
-OWN_POLICY = os.environ.get("OMP_WAIT_POLICY")  # the caller's, if any: it stands
-if "--openmp-default" in sys.argv:  # before mjregen: OpenMP reads its policy as torch loads
-    importlib.import_module("torch")
+import torch
 
-import mjregen  # noqa: E402  (sets the OpenMP wait policy unless torch is loaded)
-import torch  # noqa: E402
-
+from mjregen import __version__
 from mjregen.growth.nca import NCAConfig, grow
 from mjregen.growth.networks import random_genomes
 
@@ -60,23 +51,18 @@ def main() -> None:
     parser.add_argument("--threads", type=int, help="torch intra-op threads (default: torch's)")
     parser.add_argument("--load", type=int, default=0,
                         help="other busy processes during the timing (default 0)")
-    parser.add_argument("--openmp-default", action="store_true",
-                        help="keep OpenMP's own wait policy (torch loaded before mjregen)")
     parser.add_argument("--json", help="also write the results to this JSON file")
     args = parser.parse_args()
     if args.threads:
         torch.set_num_threads(args.threads)
-    policy = OWN_POLICY or ("OpenMP's default" if args.openmp_default else "PASSIVE")
     load = [multiprocessing.get_context("spawn").Process(target=_busy, daemon=True)
             for _ in range(args.load)]
     for process in load:
         process.start()
-    results = {"mjregen": mjregen.__version__, "population": args.population,
-               "threads": torch.get_num_threads(),
-               "load": args.load, "wait_policy": policy, "runs": []}
+    results = {"mjregen": __version__, "population": args.population,
+               "threads": torch.get_num_threads(), "load": args.load, "runs": []}
     print(f"3D growth of {args.population} robots, torch threads {torch.get_num_threads()}, "
-          f"OpenMP wait policy {policy}, {args.load} busy processes beside it, "
-          f"median of {args.repeats}")
+          f"{args.load} busy processes beside it, median of {args.repeats}")
     print(f"{'net':5s} {'mode':14s} {'wall s':>8s} {'cpu s':>8s}")
     for kind in ("ff", "lstm"):
         config = NCAConfig(dim=3, kind=kind)

@@ -1,16 +1,6 @@
 """mjregen: grow soft voxel robots with neural cellular automata, walk them in MuJoCo,
 evolve them with a genetic algorithm and regrow them after damage."""
 
-import os
-
-# Before torch is imported: its OpenMP threads wait for each other between the growth's
-# many short operations, and by default they spin while waiting. Beside other busy
-# processes (a second run on the same cores, other jobs on a cluster node) a spinning
-# thread holds a core its partner needs, and a population's growth takes up to ten times
-# as long (benchmarks/growth.py --load); waiting passively costs a population's growth
-# at most about 0.2 s when the cores are free. A user's own setting stands.
-os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
-
 __version__ = "0.1.0"
 __all__ = ["Material", "Robot", "__version__", "plugin_library"]
 

@@ -138,6 +138,13 @@ class PopulationNetworks:
         weight, bias = self.layers[name]
         return torch.baddbmm(bias, x, weight)
 
+    def _output(self, name: str, x: torch.Tensor) -> torch.Tensor:
+        """The output layer (6 outputs), one matmul per individual: a batched matmul this
+        narrow rounds differently where an individual's output block is not aligned in
+        memory (every other one), so a robot would depend on its place in the population."""
+        weight, bias = self.layers[name]
+        return torch.stack([torch.addmm(bias[i, 0], x[i], weight[i]) for i in range(len(x))])
+
     def __call__(
         self, x: torch.Tensor, memory: tuple[torch.Tensor, torch.Tensor] | None
     ) -> tuple[torch.Tensor, tuple[torch.Tensor, torch.Tensor] | None]:
@@ -146,7 +153,7 @@ class PopulationNetworks:
         if self.kind == "ff":
             x = torch.tanh(self._linear("linear1", x))
             x = torch.tanh(self._linear("linear2", x))
-            return self._linear("linear3", x), None
+            return self._output("linear3", x), None
         assert memory is not None
         h, c = memory
         x = torch.tanh(self._linear("linear1", x))
@@ -156,4 +163,4 @@ class PopulationNetworks:
         in_gate, forget_gate, out_gate = sig.split(hidden, dim=-1)
         c = torch.addcmul(forget_gate * c, in_gate, torch.tanh(gates[..., 3 * hidden :]))
         h = torch.tanh(c).mul_(out_gate)
-        return self._linear("linear2", h), (h, c)
+        return self._output("linear2", h), (h, c)
