@@ -216,8 +216,8 @@ CHUNK = 16  # individuals grown together: small enough for the caches, big enoug
 
 
 def _batches(population: int, threads: int) -> list[slice]:
-    """Batches of at most `CHUNK` individuals, as many as a multiple of `threads` allows,
-    of equal size (the last one smaller), so that the threads finish together."""
+    """Consecutive batches of at most `CHUNK` individuals, about equal in size and as many
+    as the next multiple of `threads` (or one fewer), so that the threads finish together."""
     count = -(-population // CHUNK)
     count = -(-count // threads) * threads
     size = -(-population // count)
@@ -264,6 +264,8 @@ def grow(
     """
     genomes = check_genomes(config, genomes).reshape(-1, config.genome_size)
     population = len(genomes)
+    if population == 0:
+        raise InvalidGenomeError("no genomes to grow: the population is empty")
     start = CAState.seed(config, population) if start is None else start
     if tuple(start.state.shape) != (population, *config.grid_shape):
         raise ValueError(
@@ -293,8 +295,12 @@ def grow(
     threads = min(torch.get_num_threads(), -(-population // CHUNK))
     parts = _batches(population, threads)
     if threads > 1:
-        with _one_thread_per_op(), ThreadPoolExecutor(threads) as pool:
-            chunks = list(pool.map(grow_chunk, parts))
+        with _one_thread_per_op():
+            pool = ThreadPoolExecutor(threads)
+            try:
+                chunks = list(pool.map(grow_chunk, parts))
+            finally:  # an interrupt drops the batches not started
+                pool.shutdown(wait=True, cancel_futures=True)
     else:
         chunks = [grow_chunk(part) for part in parts]
     states, alphas, finals = zip(*chunks)

@@ -360,3 +360,9 @@ def test_an_individual_grows_the_same_at_any_place_in_a_population():
         alone = grow(config, genome)
         assert np.array_equal(population.states[i], alone.states[0]), i
         assert np.array_equal(population.alphas[i], alone.alphas[0]), i
+
+
+def test_an_empty_population_is_refused_by_name():
+    config = NCAConfig(dim=3, kind="ff")
+    with pytest.raises(InvalidGenomeError, match="population is empty"):
+        grow(config, np.zeros((0, config.genome_size), dtype=np.float32))
