@@ -21,6 +21,7 @@ Genomes are float32 vectors in the order of ``torch.nn.utils.parameters_to_vecto
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Iterator
 from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
@@ -224,6 +225,9 @@ def _batches(population: int, threads: int) -> list[slice]:
     return [slice(begin, begin + size) for begin in range(0, population, size)]
 
 
+_THREAD_SETTING = threading.Lock()  # held while a growth reads and changes torch's threads
+
+
 @contextmanager
 def _one_thread_per_op() -> Iterator[None]:
     """torch's intra-op threads set to one while the block runs (threads started inside
@@ -292,17 +296,18 @@ def grow(
         return (torch.stack([h.state for h in history], dim=1),
                 torch.stack([h.alpha for h in history], dim=1), ca)
 
-    threads = min(torch.get_num_threads(), -(-population // CHUNK))
-    parts = _batches(population, threads)
-    if threads > 1:
-        with _one_thread_per_op():
-            pool = ThreadPoolExecutor(threads)
-            try:
-                chunks = list(pool.map(grow_chunk, parts))
-            finally:  # an interrupt drops the batches not started
-                pool.shutdown(wait=True, cancel_futures=True)
-    else:
-        chunks = [grow_chunk(part) for part in parts]
+    with _THREAD_SETTING:  # growths in other threads wait: torch's setting is global
+        threads = min(torch.get_num_threads(), -(-population // CHUNK))
+        parts = _batches(population, threads)
+        if threads > 1:
+            with _one_thread_per_op():
+                pool = ThreadPoolExecutor(threads)
+                try:
+                    chunks = list(pool.map(grow_chunk, parts))
+                finally:  # an interrupt drops the batches not started
+                    pool.shutdown(wait=True, cancel_futures=True)
+        else:
+            chunks = [grow_chunk(part) for part in parts]
     states, alphas, finals = zip(*chunks)
     final = CAState(
         torch.cat([f.state for f in finals]),

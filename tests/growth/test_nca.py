@@ -366,3 +366,4 @@ def test_an_empty_population_is_refused_by_name():
     config = NCAConfig(dim=3, kind="ff")
     with pytest.raises(InvalidGenomeError, match="population is empty"):
         grow(config, np.zeros((0, config.genome_size), dtype=np.float32))
+
