@@ -253,9 +253,9 @@ def grow(
     Individuals are independent and every one gets bit-identical results whether it grows
     alone or in a population; they are processed in batches of `CHUNK` (cache blocking),
     the batches side by side on ``torch.get_num_threads()`` threads, each running its
-    operations on one thread. (torch's own intra-op threads would meet after every one of
-    the growth's many short operations, and beside other busy processes a thread that loses
-    its core stalls its partners: growth took up to ten times as long.)
+    operations on one thread. (torch's own intra-op threads meet after every one of the
+    growth's many short operations, so beside other busy processes a thread that loses its
+    core stalls its partners: up to ten times the time, `benchmarks/growth.py --load`.)
 
     Args:
       config: the NCA configuration.

@@ -328,7 +328,6 @@ def test_checkpoint_errors(tmp_path):
         load_nca(pickled)
 
 
-
 @pytest.mark.parametrize("kind", ["ff", "lstm"])
 def test_growth_on_several_threads_equals_one_thread_exactly_and_keeps_the_setting(kind):
     config = NCAConfig(dim=3, kind=kind)
@@ -366,4 +365,3 @@ def test_an_empty_population_is_refused_by_name():
     config = NCAConfig(dim=3, kind="ff")
     with pytest.raises(InvalidGenomeError, match="population is empty"):
         grow(config, np.zeros((0, config.genome_size), dtype=np.float32))
-
