@@ -38,6 +38,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from mjregen.experiments.paper import list_runs
 from mjregen.grid import Robot
 from mjregen.physics import Physics, timestep
 from mjregen.physics.compile import compile_robot
@@ -255,22 +256,21 @@ def recorded_evolutions(root: Path = RECORDS) -> list[dict]:
     of its planned ones, wall hours (the generations' own, summed), evaluations per second
     and the wall hours of all its planned generations at that rate."""
     runs = []
-    for condition in PAPER_SIZE:
-        for folder in sorted((root / condition).glob("seed_*")):
-            config = json.loads((folder / "config.json").read_text())
-            with open(folder / "metrics.csv", newline="") as handle:
-                rows = list(csv.DictReader(handle))
-            if not rows:
-                continue
-            elapsed = float(rows[-1]["elapsed"])
-            planned = config["ga"]["generations"]
+    for condition, infos in list_runs(root).items():
+        if condition not in PAPER_SIZE:
+            continue
+        for info in infos:
+            with open(info.path / "metrics.csv", newline="") as handle:
+                simulated = sum(int(row["distinct"]) for row in csv.DictReader(handle))
+            population = info.config["ga"]["population"]
             runs.append({
-                "run": f"{condition} seed {config['seed']}",
-                "population": config["ga"]["population"], "generations": len(rows),
-                "planned": planned, "wall_h": elapsed / 3600,
-                "evaluations_per_s": sum(int(r["evaluations"]) for r in rows) / elapsed,
-                "simulated_per_s": sum(int(r["distinct"]) for r in rows) / elapsed,
-                "planned_h": elapsed * planned / len(rows) / 3600,
+                "run": f"{condition} seed {info.seed}", "population": population,
+                "generations": info.generations_done, "planned": info.generations_planned,
+                "complete": info.complete, "wall_h": info.elapsed / 3600,
+                "evaluations_per_s": population * info.generations_done / info.elapsed,
+                "simulated_per_s": simulated / info.elapsed,
+                "planned_h": info.elapsed * info.generations_planned / info.generations_done
+                / 3600,
             })
     return runs
 
@@ -347,7 +347,7 @@ def performance_doc(report: dict, extra: dict, evolution: dict | None,
             f"{evolution['evaluations_per_s']:.2f} evaluations per second; the paper's 300 "
             f"generations at its mean time per generation: "
             f"**{evolution['projected_paper_run_h']:.1f} h**.")
-    done = [r for r in recorded if r["generations"] == r["planned"]]
+    done = [r for r in recorded if r["complete"]]
     if done:
         lines.append(
             f"- The finished paper-size 3D evolutions of `records/` ({len(done)}; population "
