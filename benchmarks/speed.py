@@ -183,8 +183,9 @@ def engine_steps(robot: Robot, physics: Physics, duration: float = 0.55) -> int:
 
 def step_analysis(robots_by_name: dict[str, Robot]) -> dict:
     """Per robot: the network rule's λ, μ, the fastest mode's damping ratio μ / (2√λ), our
-    steps, the engine's, and the step ratio that the damping costs (undamped / damped
-    stability limit)."""
+    steps, the engine's, the step ratio that the damping costs (undamped / damped
+    stability limit), and the median over the voxels' sliding dofs of h C_ii / m (the mass
+    a step taking each dof's own damping implicitly would add, relatively)."""
     physics = Physics()
     out = {}
     for name, robot in robots_by_name.items():
@@ -194,9 +195,14 @@ def step_analysis(robots_by_name: dict[str, Robot]) -> dict:
                "engine_steps": engine_steps(robot, physics) if robot.dim == 3 else None}
         if compiled.network_rates is not None:
             stiffness, damping = compiled.network_rates
+            own = timestep.own_damping_rates(compiled.model, voxel_size=physics.scene.voxel_size,
+                                             instance=compiled.plugin_instance)
+            sliding = ~timestep.rotational_dofs(compiled.model)
             row.update(zeta=damping / (2.0 * math.sqrt(stiffness)),
                        damping_cost=timestep.stable_step(stiffness, 0.0)
-                       / timestep.stable_step(stiffness, damping))
+                       / timestep.stable_step(stiffness, damping),
+                       own_damping_step=float(np.median(own[sliding])) * compiled.timestep,
+                       damping_step=damping * compiled.timestep)
         out[name] = row
     return out
 
@@ -436,10 +442,13 @@ def performance_doc(report: dict, extra: dict, evolution: dict | None,
         "v_n that mjregen's dampers take: the same linear dynamics, so the same limit.",
         "",
         "| robot | fastest mode ζ | undamped / damped limit | steps engine / mjregen | "
-        "engine's step / the damped limit |",
-        "|---|---|---|---|---|",
+        "engine's step / the damped limit | h C_ii / m |",
+        "|---|---|---|---|---|---|",
     ]
     safety = Physics().scene.timestep_safety
+    analysed = {name: row for name, row in steps.items() if "zeta" in row}
+    costs = [row["damping_cost"] for row in analysed.values()]
+    densest = max(analysed, key=lambda name: analysed[name]["damping_cost"])
     for name, row in steps.items():
         if "zeta" not in row:
             continue
@@ -447,7 +456,8 @@ def performance_doc(report: dict, extra: dict, evolution: dict | None,
         edge = ("" if row["engine_steps"] is None else
                 f"{safety * row['steps'] / row['engine_steps']:.2f}")
         lines.append(f"| {DOC_ROBOTS.get(name, name)} | {row['zeta']:.2f} | "
-                     f"{row['damping_cost']:.2f} | {engine} / {row['steps']:,} | {edge} |")
+                     f"{row['damping_cost']:.2f} | {engine} / {row['steps']:,} | {edge} | "
+                     f"{row['own_damping_step']:.2f} |")
     lines += [
         "",
         "On dense blocks (the networks' stiffest topology, which the engine's rule is made "
@@ -460,6 +470,21 @@ def performance_doc(report: dict, extra: dict, evolution: dict | None,
         f"{safety:g} of it: that margin, not the cost of a step, is the ratio's remainder. A "
         "longer step at the same accuracy needs another integrator for the overdamped modes "
         "(their damping sets the limit), to be judged against the engine's recordings.",
+        "",
+        "Taking the dampers implicitly would lift the damped limit towards the undamped one "
+        f"(the table's {min(costs):.1f}–{max(costs):.1f} ×), but they couple every voxel to "
+        "its neighbours (C = βK over "
+        "the bond network), so the step would solve (M + hC) v' = M v + h f each time. "
+        "Taking only each dof's own damping implicitly (its neighbours' at the last step) "
+        "needs no solve, but is the same as adding h C_ii to the dof's mass: the last column "
+        "(median over the voxels' sliding dofs, at mjregen's step) says by how much, relatively, "
+        "and that extra mass would slow the slow modes, the gait, as much as the fast ones. The "
+        "full solve by conjugate gradients costs one bond-damping pass (most of a step's "
+        "work) per iteration, and (M + hC) has condition number up to 1 + hμ: on the "
+        f"{DOC_ROBOTS[densest]}, {1.0 + steps[densest]['damping_step']:.1f} at mjregen's step "
+        f"and {1.0 + steps[densest]['damping_step'] * steps[densest]['damping_cost'] / safety:.1f}"
+        " at the undamped limit, so tens of iterations to the motion's accuracy, for a step "
+        f"at most {steps[densest]['damping_cost'] / safety:.1f} × longer. Neither pays.",
     ]
     if evolution is not None:
         lines += [

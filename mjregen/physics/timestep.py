@@ -177,6 +177,30 @@ def network_rates(model: mujoco.MjModel, *, voxel_size: float, instance: int = 0
             largest_eigenvalue(network.damping, n, seed=1))
 
 
+def own_damping_rates(model: mujoco.MjModel, *, voxel_size: float,
+                      instance: int = 0) -> np.ndarray:
+    """``(nv,)`` s⁻¹: the diagonal of M⁻¹C of the bond network at rest, each dof's damping
+    of its own velocity with every other dof still (one probe per dof).
+
+    h times it is what a step that took each dof's own damping implicitly and the others'
+    explicitly would add to its mass (or inertia), relatively: such a step is
+    v' = v + h f / (m + h C_ii), f the explicit force.
+
+    Args:
+      model: a model with the voxel plugin as `instance` (its qpos0 is the rest state).
+      voxel_size: L in m (the probes' scale).
+    """
+    network = _NetworkForces(model, voxel_size=voxel_size, instance=instance,
+                             floor_stiffness=None, floor_damping=None)
+    rates = np.empty(model.nv)
+    probe = np.zeros(model.nv)
+    for i in range(model.nv):
+        probe[i] = 1.0
+        rates[i] = network.damping(probe)[i]
+        probe[i] = 0.0
+    return rates
+
+
 def strain_stiffening(beams, scene) -> float:
     """Largest factor by which a bond's modes stiffen over the rest lengths l its muscles
     command (>= 1). Two effects: the tendons' axial law k0 + kd l²/(l² + D²) stiffens

@@ -15,6 +15,7 @@ from mjregen.physics.simulation import simulation_of
 from mjregen.physics.timestep import (
     largest_eigenvalue,
     network_rates,
+    own_damping_rates,
     stable_step,
     stiffest_bond_step,
     strain_stiffening,
@@ -63,6 +64,24 @@ def test_two_voxels_fastest_mode_is_the_beam_theory_one(bond_model, element):
         assert zeta == 0.5
         rate = 3.5 if bond_model == "euler_bernoulli" else 2.0
         assert damping == pytest.approx(rate * np.sqrt(k_over_m), rel=0.03)
+
+
+def test_a_voxels_own_damping_is_its_bonds_damper_over_its_mass():
+    """Two free voxels on one bond along x: voxel 0 moving along x alone works the axial
+    damper c = β E L, β = 2ζ sqrt(m/(E L)), so its own rate C_xx/m is 2ζ sqrt(E L/m), the
+    same for voxel 1; the two sideways dofs damp alike."""
+    physics = NETWORK.replace(floor=False)
+    hard = physics.materials[Material.HARD]
+    compiled = compile_robot(Robot.box((2, 1, 1), Material.HARD), physics=physics)
+    rates = own_damping_rates(compiled.model, voxel_size=physics.scene.voxel_size,
+                              instance=compiled.plugin_instance)
+    assert rates.shape == (12,)
+    k_over_m = hard.youngs_modulus * physics.scene.voxel_size / physics.voxel_mass(Material.HARD)
+    axial = 2.0 * physics.scene.bond_damping_ratio * np.sqrt(k_over_m)
+    assert rates[0] == pytest.approx(axial, rel=1e-6)
+    assert rates[6] == pytest.approx(axial, rel=1e-6)
+    assert rates[1] == pytest.approx(rates[2], rel=1e-6)
+    assert rates[1] > 0.0
 
 
 def test_lanczos_finds_the_largest_eigenvalue():
