@@ -251,11 +251,12 @@ def grow(
     """Grow a population: every genome's NCA runs `steps` steps from `start`.
 
     Individuals are independent and every one gets bit-identical results whether it grows
-    alone or in a population; they are processed in batches of `CHUNK` (cache blocking),
-    the batches side by side on ``torch.get_num_threads()`` threads, each running its
-    operations on one thread. (torch's own intra-op threads meet after every one of the
-    growth's many short operations, so beside other busy processes a thread that loses its
-    core stalls its partners: up to ten times the time, `benchmarks/growth.py --load`.)
+    alone or in a population; they are processed in batches of at most `CHUNK` (cache
+    blocking), the batches side by side on up to ``torch.get_num_threads()`` threads, each
+    running its operations on one thread. (torch's own intra-op threads meet after every
+    one of the growth's many short operations, so beside other busy processes a thread that
+    loses its core stalls its partners: tens of times the time, `benchmarks/growth.py
+    --load`.)
 
     Args:
       config: the NCA configuration.
@@ -297,17 +298,17 @@ def grow(
                 torch.stack([h.alpha for h in history], dim=1), ca)
 
     with _THREAD_SETTING:  # growths in other threads wait: torch's setting is global
-        threads = min(torch.get_num_threads(), -(-population // CHUNK))
+        threads = min(torch.get_num_threads(), population)
         parts = _batches(population, threads)
-        if threads > 1:
-            with _one_thread_per_op():
+        with _one_thread_per_op():
+            if threads > 1:
                 pool = ThreadPoolExecutor(threads)
                 try:
                     chunks = list(pool.map(grow_chunk, parts))
                 finally:  # an interrupt drops the batches not started
                     pool.shutdown(wait=True, cancel_futures=True)
-        else:
-            chunks = [grow_chunk(part) for part in parts]
+            else:
+                chunks = [grow_chunk(part) for part in parts]
     states, alphas, finals = zip(*chunks)
     final = CAState(
         torch.cat([f.state for f in finals]),

@@ -2,6 +2,7 @@
 
 import itertools
 import math
+import threading
 
 import numpy as np
 import pytest
@@ -346,6 +347,36 @@ def test_growth_on_several_threads_equals_one_thread_exactly_and_keeps_the_setti
     assert np.array_equal(serial.grids, threaded.grids)
     if kind == "lstm":
         assert all(torch.equal(a, b) for a, b in zip(serial.final.memory, threaded.final.memory))
+
+
+def test_growth_of_one_or_a_few_robots_runs_each_op_on_one_thread(monkeypatch):
+    """torch's intra-op threads stall beside busy processes, so no growth uses them: one
+    robot grows with torch set to one thread, a population smaller than a batch is split
+    over the threads, and the setting is back afterwards."""
+    from mjregen.growth import nca as nca_module
+
+    seen = []
+    step = nca_module.growth_step
+
+    def recording_step(config, networks, ca):
+        seen.append((torch.get_num_threads(), threading.get_ident(), len(ca.state)))
+        return step(config, networks, ca)
+
+    monkeypatch.setattr(nca_module, "growth_step", recording_step)
+    config = NCAConfig(dim=3, kind="ff")
+    threads = torch.get_num_threads()
+    try:
+        torch.set_num_threads(2)
+        grow(config, random_genomes(config, 1, seed=0))
+        assert {setting for setting, _, _ in seen} == {1}
+        assert torch.get_num_threads() == 2
+        seen.clear()
+        grow(config, random_genomes(config, 4, seed=0))
+        assert {setting for setting, _, _ in seen} == {1}
+        assert len({ident for _, ident, _ in seen}) == 2
+        assert {size for _, _, size in seen} == {2}
+    finally:
+        torch.set_num_threads(threads)
 
 
 def test_an_individual_grows_the_same_at_any_place_in_a_population():
