@@ -114,10 +114,20 @@ def best_ncas(info: RunInfo) -> list[Path]:
     """The NCA files a record keeps: the first generation's listed with the highest fitness
     (the report's best) and, where a later one of those (metrics.csv rounds to 6 digits) has a
     higher fitness in its file, the first with the highest (the run's best, which a resume of
-    the finished record reads)."""
+    the finished record reads).
+
+    A run resumed from its record lacks the NCA files that the record left out: those of the
+    later generations tied with the first are skipped (none beat it, or the record would
+    have kept it); the first generation's file must be there.
+
+    Raises:
+      FileNotFoundError: the first best generation's NCA file is missing.
+    """
     kept, top = [], -math.inf
-    for generation in np.flatnonzero(info.best == info.best.max()):
+    for index, generation in enumerate(np.flatnonzero(info.best == info.best.max())):
         path, _ = info.best_files(int(generation))
+        if index and not path.is_file():
+            continue
         fitness = float(load_nca(path)[1]["fitness"])
         if fitness > top:
             kept.append(path)

@@ -180,6 +180,25 @@ def test_a_finished_record_without_its_best_nca_is_a_clear_error(tmp_path):
         ex.run_evolution_job(dataclasses.replace(job, out=record), progress=False)
 
 
+def test_a_run_resumed_from_its_record_snapshots_without_the_ncas_the_record_left_out(tmp_path):
+    """Generations 1-4 tie in metrics.csv (an elite kept); the record kept generation 1's NCA
+    only, so the resumed run has no files for 2 and 3; generation 4's file has the higher
+    fitness behind the rounding. The snapshot keeps 1 and 4; without 1 it is an error."""
+    from types import SimpleNamespace
+
+    best = tmp_path / "best"
+    best.mkdir()
+    nca = NCA.random(NCAConfig(dim=2, kind="ff"), seed=0)
+    save_nca(best / "gen_0001.npz", nca, metadata={"fitness": 2.0})
+    save_nca(best / "gen_0004.npz", nca, metadata={"fitness": 2.0000004})
+    info = SimpleNamespace(best=np.array([1.0, 2.0, 2.0, 2.0, 2.0]),
+                           best_files=lambda g: (best / f"gen_{g:04d}.npz", best / f"gen_{g:04d}.npy"))
+    assert snapshot_runs.best_ncas(info) == [best / "gen_0001.npz", best / "gen_0004.npz"]
+    (best / "gen_0001.npz").unlink()
+    with pytest.raises(FileNotFoundError, match="gen_0001.npz"):
+        snapshot_runs.best_ncas(info)
+
+
 @pytest.fixture(scope="module")
 def results(tmp_path_factory) -> Path:
     """Smoke runs: 2D ff (2 seeds) and lstm (1 seed) evolved for real; hand-made 3D ff runs
