@@ -306,6 +306,35 @@ def _total_ratio(report: dict, names: list[str]) -> float:
             / sum(report[n]["voxelyze_cpu_s"] for n in names))
 
 
+def implicit_damping_paragraph(steps: dict, safety: float) -> list[str]:
+    """Lines of the doc on taking the dampers implicitly, from `step_analysis`'s rows (none
+    when no robot has a bond network)."""
+    analysed = {name: row for name, row in steps.items() if "zeta" in row}
+    if not analysed:
+        return []
+    costs = [row["damping_cost"] for row in analysed.values()]
+    densest = max(analysed, key=lambda name: analysed[name]["damping_cost"])
+    row = analysed[densest]
+    longest = row["damping_cost"] / safety
+    return [
+        "",
+        "Taking the dampers implicitly would lift the damped limit towards the undamped one "
+        f"(the table's {min(costs):.1f}–{max(costs):.1f} ×), but they couple every voxel to "
+        "its neighbours (C = βK over the bond network), so the step would solve "
+        "(M + hC) v' = M v + h f each time. Taking only each dof's own damping implicitly "
+        "(its neighbours' at the last step) needs no solve, but is the same as adding h C_ii "
+        "to the dof's mass: the last column (median over the voxels' sliding dofs, at "
+        "mjregen's step) says by how much, relatively, and that extra mass would slow the "
+        "slow modes, the gait, as much as the fast ones. The full solve by conjugate "
+        "gradients costs one bond-damping pass (most of a step's work) per iteration, and "
+        "(M + hC) has condition number up to 1 + hμ: on the "
+        f"{DOC_ROBOTS.get(densest, densest)}, {1.0 + row['damping_step']:.1f} at mjregen's "
+        f"step and {1.0 + row['damping_step'] * longest:.1f} at the undamped limit, so tens "
+        "of iterations to the motion's accuracy, for a step at most "
+        f"{longest:.1f} × longer. Neither pays.",
+    ]
+
+
 def performance_doc(report: dict, extra: dict, evolution: dict | None,
                     recorded: list[dict]) -> str:
     """docs/performance.md from one run of this script (`recorded`: `recorded_evolutions`)."""
@@ -446,9 +475,6 @@ def performance_doc(report: dict, extra: dict, evolution: dict | None,
         "|---|---|---|---|---|---|",
     ]
     safety = Physics().scene.timestep_safety
-    analysed = {name: row for name, row in steps.items() if "zeta" in row}
-    costs = [row["damping_cost"] for row in analysed.values()]
-    densest = max(analysed, key=lambda name: analysed[name]["damping_cost"])
     for name, row in steps.items():
         if "zeta" not in row:
             continue
@@ -470,22 +496,8 @@ def performance_doc(report: dict, extra: dict, evolution: dict | None,
         f"{safety:g} of it: that margin, not the cost of a step, is the ratio's remainder. A "
         "longer step at the same accuracy needs another integrator for the overdamped modes "
         "(their damping sets the limit), to be judged against the engine's recordings.",
-        "",
-        "Taking the dampers implicitly would lift the damped limit towards the undamped one "
-        f"(the table's {min(costs):.1f}–{max(costs):.1f} ×), but they couple every voxel to "
-        "its neighbours (C = βK over "
-        "the bond network), so the step would solve (M + hC) v' = M v + h f each time. "
-        "Taking only each dof's own damping implicitly (its neighbours' at the last step) "
-        "needs no solve, but is the same as adding h C_ii to the dof's mass: the last column "
-        "(median over the voxels' sliding dofs, at mjregen's step) says by how much, relatively, "
-        "and that extra mass would slow the slow modes, the gait, as much as the fast ones. The "
-        "full solve by conjugate gradients costs one bond-damping pass (most of a step's "
-        "work) per iteration, and (M + hC) has condition number up to 1 + hμ: on the "
-        f"{DOC_ROBOTS[densest]}, {1.0 + steps[densest]['damping_step']:.1f} at mjregen's step "
-        f"and {1.0 + steps[densest]['damping_step'] * steps[densest]['damping_cost'] / safety:.1f}"
-        " at the undamped limit, so tens of iterations to the motion's accuracy, for a step "
-        f"at most {steps[densest]['damping_cost'] / safety:.1f} × longer. Neither pays.",
     ]
+    lines += implicit_damping_paragraph(steps, safety)
     if evolution is not None:
         lines += [
             "",
