@@ -313,8 +313,8 @@ def implicit_damping_paragraph(steps: dict, safety: float) -> list[str]:
     if not analysed:
         return []
     costs = [row["damping_cost"] for row in analysed.values()]
-    densest = max(analysed, key=lambda name: analysed[name]["damping_cost"])
-    row = analysed[densest]
+    costliest = max(analysed, key=lambda name: analysed[name]["damping_cost"])
+    row = analysed[costliest]
     longest = row["damping_cost"] / safety
     return [
         "",
@@ -328,7 +328,7 @@ def implicit_damping_paragraph(steps: dict, safety: float) -> list[str]:
         "slow modes, the gait, as much as the fast ones. The full solve by conjugate "
         "gradients costs one bond-damping pass (most of a step's work) per iteration, and "
         "(M + hC) has condition number up to 1 + hμ: on the "
-        f"{DOC_ROBOTS.get(densest, densest)}, {1.0 + row['damping_step']:.1f} at mjregen's "
+        f"{DOC_ROBOTS.get(costliest, costliest)}, {1.0 + row['damping_step']:.1f} at mjregen's "
         f"step and {1.0 + row['damping_step'] * longest:.1f} at the undamped limit, so tens "
         "of iterations to the motion's accuracy, for a step at most "
         f"{longest:.1f} × longer. Neither pays.",
