@@ -157,7 +157,8 @@ def _converged(ritz: list[float]) -> bool:
 
 def network_rates(model: mujoco.MjModel, *, voxel_size: float, instance: int = 0,
                   floor_stiffness: np.ndarray | None = None,
-                  floor_damping: np.ndarray | None = None) -> tuple[float, float]:
+                  floor_damping: np.ndarray | None = None,
+                  held: np.ndarray | None = None) -> tuple[float, float]:
     """(λ s⁻², μ s⁻¹): the largest eigenvalues of M⁻¹K and M⁻¹C of the bond network.
 
     C of the paper engine's beam dampers (moment rows at half the force rows' ratio) is not
@@ -169,12 +170,21 @@ def network_rates(model: mujoco.MjModel, *, voxel_size: float, instance: int = 0
       voxel_size: L in m (the probes' scale).
       floor_stiffness, floor_damping: ``(nv,)`` s⁻² and s⁻¹, the floor's spring and damper
         per mass on each voxel's vertical dof (0 elsewhere), or None (no floor).
+      held: ``(nv,)`` bool, dofs held still (left out of the modes), or None (none). The
+        rotational dofs held are the network of voxels with infinite rotational inertia.
     """
     network = _NetworkForces(model, voxel_size=voxel_size, instance=instance,
                              floor_stiffness=floor_stiffness, floor_damping=floor_damping)
     n = network.model.nv
-    return (largest_eigenvalue(network.stiffness, n),
-            largest_eigenvalue(network.damping, n, seed=1))
+    stiffness, damping = network.stiffness, network.damping
+    if held is not None:
+        free = ~np.asarray(held, dtype=bool)
+        if free.shape != (n,):
+            raise PhysicsParameterError(
+                f"held must be a ({n},) bool array (one per dof), got shape {free.shape}")
+        stiffness, damping = (lambda y: free * network.stiffness(free * y),
+                              lambda y: free * network.damping(free * y))
+    return (largest_eigenvalue(stiffness, n), largest_eigenvalue(damping, n, seed=1))
 
 
 def own_damping_rates(model: mujoco.MjModel, *, voxel_size: float,

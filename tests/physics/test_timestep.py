@@ -16,6 +16,7 @@ from mjregen.physics.timestep import (
     largest_eigenvalue,
     network_rates,
     own_damping_rates,
+    rotational_dofs,
     stable_step,
     stiffest_bond_step,
     strain_stiffening,
@@ -64,6 +65,28 @@ def test_two_voxels_fastest_mode_is_the_beam_theory_one(bond_model, element):
         assert zeta == 0.5
         rate = 3.5 if bond_model == "euler_bernoulli" else 2.0
         assert damping == pytest.approx(rate * np.sqrt(k_over_m), rel=0.03)
+
+
+@pytest.mark.parametrize("bond_model", ["euler_bernoulli", "timoshenko"])
+def test_two_voxels_with_their_rotations_held_have_only_sliding_modes(bond_model):
+    """Two voxels on one beam bond, their rotations held (infinite rotational inertia):
+    no shear mode turns them, so the fastest modes are the axial one, 2 E L/m, and, for
+    shear-rigid bonds, the transverse one (k = 12 E I/L³ = E L with its ends held straight),
+    2 E L/m as well; the Timoshenko bond's transverse spring is softer. Both are damped
+    by the force rows (c = 2ζ sqrt(m k)): 2ζ·2 sqrt(E L/m)."""
+    physics = NETWORK.replace(bond_model=bond_model, bond_element="beam", floor=False)
+    hard = physics.materials[Material.HARD]
+    compiled = compile_robot(Robot.box((2, 1, 1), Material.HARD), physics=physics)
+    k_over_m = hard.youngs_modulus * physics.scene.voxel_size / physics.voxel_mass(Material.HARD)
+    stiffness, damping = network_rates(compiled.model, voxel_size=physics.scene.voxel_size,
+                                       instance=compiled.plugin_instance,
+                                       held=rotational_dofs(compiled.model))
+    assert stiffness == pytest.approx(2.0 * k_over_m, rel=1e-4)
+    zeta = physics.scene.bond_damping_ratio
+    assert damping == pytest.approx(2.0 * zeta * 2.0 * np.sqrt(k_over_m), rel=1e-4)
+    with pytest.raises(PhysicsParameterError, match="held must be a"):
+        network_rates(compiled.model, voxel_size=physics.scene.voxel_size,
+                      instance=compiled.plugin_instance, held=np.zeros(3, dtype=bool))
 
 
 def test_a_voxels_own_damping_is_its_bonds_damper_over_its_mass():
