@@ -41,7 +41,8 @@ import numpy as np
 from mjregen.experiments.paper import list_runs
 from mjregen.grid import Robot
 from mjregen.physics import Physics, timestep
-from mjregen.physics.compile import compile_robot
+from mjregen.physics.compile import CompiledRobot, compile_robot
+from mjregen.physics.model import engine_floor_constants, robot_layout
 from mjregen.physics.simulation import simulate, simulation_of
 from mjregen.plugin_cache import FLAGS, cpu_features
 
@@ -184,8 +185,9 @@ def engine_steps(robot: Robot, physics: Physics, duration: float = 0.55) -> int:
 def step_analysis(robots_by_name: dict[str, Robot]) -> dict:
     """Per robot: the network rule's λ, μ, the fastest mode's damping ratio μ / (2√λ), our
     steps, the engine's, the step ratio that the damping costs (undamped / damped
-    stability limit), and the median over the voxels' sliding dofs of h C_ii / m (the mass
-    a step taking each dof's own damping implicitly would add, relatively)."""
+    stability limit), the median over the voxels' sliding dofs of h C_ii / m (the mass
+    a step taking each dof's own damping implicitly would add, relatively) and the limit
+    with the voxels' rotations held (infinite rotational inertia) over the limit."""
     physics = Physics()
     out = {}
     for name, robot in robots_by_name.items():
@@ -197,14 +199,33 @@ def step_analysis(robots_by_name: dict[str, Robot]) -> dict:
             stiffness, damping = compiled.network_rates
             own = timestep.own_damping_rates(compiled.model, voxel_size=physics.scene.voxel_size,
                                              instance=compiled.plugin_instance)
-            sliding = ~timestep.rotational_dofs(compiled.model)
-            row.update(zeta=damping / (2.0 * math.sqrt(stiffness)),
+            rotational = timestep.rotational_dofs(compiled.model)
+            row.update(stiffness_rate=stiffness, damping_rate=damping,
+                       zeta=damping / (2.0 * math.sqrt(stiffness)),
                        damping_cost=timestep.stable_step(stiffness, 0.0)
                        / timestep.stable_step(stiffness, damping),
-                       own_damping_step=float(np.median(own[sliding])) * compiled.timestep,
-                       damping_step=damping * compiled.timestep)
+                       own_damping_step=float(np.median(own[~rotational])) * compiled.timestep,
+                       damping_step=damping * compiled.timestep,
+                       rotations_held=timestep.stable_step(*held_rates(compiled, rotational))
+                       / timestep.stable_step(stiffness, damping))
         out[name] = row
     return out
+
+
+def held_rates(compiled: CompiledRobot, held: np.ndarray) -> tuple[float, float]:
+    """(λ s⁻², μ s⁻¹) of the network rule of an unclamped `compiled` robot (the engine floor
+    under every voxel, as the rule takes it) with the dofs `held` still."""
+    physics = compiled.physics
+    layout = robot_layout(compiled.robot, physics, set(), 0.0)
+    stiffness, damping = engine_floor_constants(layout, physics)
+    floor_k, floor_c = timestep.engine_floor_rates(
+        compiled.model, compiled.body_ids, dim=compiled.robot.dim, stiffness=stiffness,
+        damping=damping, masses=compiled.masses)
+    rates = timestep.network_rates(compiled.model, voxel_size=physics.scene.voxel_size,
+                                   instance=compiled.plugin_instance, floor_stiffness=floor_k,
+                                   floor_damping=floor_c, held=held)
+    stiffening = timestep.strain_stiffening(compiled.beams, physics.scene)
+    return stiffening * rates[0], stiffening * rates[1]
 
 
 def chaos(robot: Robot, runs: int = 6, size: float = 1e-13) -> dict:
@@ -333,6 +354,84 @@ def implicit_damping_paragraph(steps: dict, safety: float) -> list[str]:
         "of iterations to the motion's accuracy, for a step at most "
         f"{longest:.1f} × longer. Neither pays.",
     ]
+
+
+def rotational_inertia_paragraph(steps: dict) -> list[str]:
+    """Lines of the doc on the voxels' rotational inertia as a lever, from `step_analysis`'s
+    rows (none when no robot has a bond network)."""
+    gains = {name: row["rotations_held"] for name, row in steps.items() if "zeta" in row}
+    if not gains:
+        return []
+    most = max(gains, key=gains.get)
+    return [
+        "",
+        "A larger rotational inertia of the voxels (a lever common in explicit voxel and "
+        "particle codes) cannot lengthen the step much: at its extreme, the rotations held "
+        "still, the damped limit grows by only "
+        f"{100 * (min(gains.values()) - 1):.1f}–{100 * (max(gains.values()) - 1):.1f} % "
+        f"(last column; most on the {DOC_ROBOTS.get(most, most)}). The fastest modes slide "
+        "the voxels against each other (axial and transverse bond modes), so their rate is "
+        "set by the voxels' mass, which is the physics.",
+    ]
+
+
+def explicit_schemes_paragraph(steps: dict, safety: float,
+                               hertz: float | None = None) -> list[str]:
+    """Lines of the doc on other explicit schemes (`explicit_schemes.comparison` on each
+    robot's λ, μ; the slow mode at the muscles' frequency), none when no robot has a bond
+    network."""
+    schemes = _sibling("explicit_schemes")
+    hertz = Physics().scene.frequency if hertz is None else hertz
+    rows = {name: schemes.comparison(row["stiffness_rate"], row["damping_rate"], safety,
+                                     2.0 * math.pi * hertz)
+            for name, row in steps.items() if "zeta" in row}
+    if not rows:
+        return []
+
+    def spread(scheme: str, key: str, per_evaluation: bool = False) -> str:
+        low, high = (f"{v:.2f}" for v in extremes(scheme, key, per_evaluation))
+        return low if low == high else f"{low}–{high}"
+
+    def extremes(scheme: str, key: str, per_evaluation: bool = False) -> tuple[float, float]:
+        values = [r[key] / (r["evaluations"] if per_evaluation else 1)
+                  for robot in rows.values() for r in robot if r["scheme"] == scheme]
+        return min(values), max(values)
+
+    euler = spread("semi-implicit Euler", "damping_kept")
+    best = [max(r["step_keeping"] / r["evaluations"] for r in robot
+                if r["scheme"] != "semi-implicit Euler") for robot in rows.values()]
+    cheapest = (min(best), max(best))
+    return [
+        "",
+        "Another explicit scheme does lengthen the limit, but only by taking the damping "
+        "away from the slow modes, the gait's (`benchmarks/explicit_schemes.py`: each "
+        "robot's network as modes up to √λ damped in proportion to their stiffness, c = "
+        f"μ ω²/λ, the slow mode at the muscles' {hertz:g} Hz). Semi-implicit Euler, the "
+        "engine's scheme and the plugin's, damps every mode at its own rate (a step "
+        f"multiplies its energy by 1 − hc): at {safety:g} of its limit it keeps {euler} of "
+        "the slow mode's damping ratio. The explicit Runge–Kutta schemes with the longest "
+        "real stability interval per force evaluation, the damped Chebyshev (RKC) ones "
+        "(one stage is forward Euler), reach limits "
+        f"{spread('RKC 1', 'limit')} (1 stage), {spread('RKC 2', 'limit')} (2 stages) and "
+        f"{spread('RKC 3', 'limit')} (3 stages) times semi-implicit Euler's, but at "
+        f"{safety:g} of those limits they keep only {spread('RKC 1', 'damping_kept')}, "
+        f"{spread('RKC 2', 'damping_kept')} and {spread('RKC 3', 'damping_kept')} of the "
+        "slow mode's damping: their error grows with h ω²/c, which damping in proportion "
+        "to stiffness makes one share for all modes. Keeping 97 % of it needs steps of "
+        f"{spread('RKC 1', 'step_keeping')}, {spread('RKC 2', 'step_keeping')} and "
+        f"{spread('RKC 3', 'step_keeping')} of today's, "
+        f"{spread('RKC 2', 'step_keeping', True)} and {spread('RKC 3', 'step_keeping', True)} "
+        f"per force evaluation for 2 and 3 stages: {1 / cheapest[1]:.0f}–{1 / cheapest[0]:.0f} "
+        "times today's cost at best.",
+    ]
+
+
+def _sibling(name: str):
+    """The module `name`.py beside this script."""
+    spec = importlib.util.spec_from_file_location(name, Path(__file__).with_name(f"{name}.py"))
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
 
 
 def performance_doc(report: dict, extra: dict, evolution: dict | None,
@@ -471,8 +570,8 @@ def performance_doc(report: dict, extra: dict, evolution: dict | None,
         "v_n that mjregen's dampers take: the same linear dynamics, so the same limit.",
         "",
         "| robot | fastest mode ζ | undamped / damped limit | steps engine / mjregen | "
-        "engine's step / the damped limit | h C_ii / m |",
-        "|---|---|---|---|---|---|",
+        "engine's step / the damped limit | h C_ii / m | limit, rotations held / limit |",
+        "|---|---|---|---|---|---|---|",
     ]
     safety = Physics().scene.timestep_safety
     for name, row in steps.items():
@@ -483,7 +582,7 @@ def performance_doc(report: dict, extra: dict, evolution: dict | None,
                 f"{safety * row['steps'] / row['engine_steps']:.2f}")
         lines.append(f"| {DOC_ROBOTS.get(name, name)} | {row['zeta']:.2f} | "
                      f"{row['damping_cost']:.2f} | {engine} / {row['steps']:,} | {edge} | "
-                     f"{row['own_damping_step']:.2f} |")
+                     f"{row['own_damping_step']:.2f} | {row['rotations_held']:.3f} |")
     lines += [
         "",
         "On dense blocks (the networks' stiffest topology, which the engine's rule is made "
@@ -497,7 +596,9 @@ def performance_doc(report: dict, extra: dict, evolution: dict | None,
         "longer step at the same accuracy needs another integrator for the overdamped modes "
         "(their damping sets the limit), to be judged against the engine's recordings.",
     ]
+    lines += rotational_inertia_paragraph(steps)
     lines += implicit_damping_paragraph(steps, safety)
+    lines += explicit_schemes_paragraph(steps, safety)
     if evolution is not None:
         lines += [
             "",
