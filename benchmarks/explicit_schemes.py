@@ -36,8 +36,8 @@ one-step map."""
 
 def network_modes(stiffness_rate: float, damping_rate: float,
                   count: int = MODES) -> tuple[np.ndarray, np.ndarray]:
-    """(ω ``(count,)`` rad/s, c ``(count,)`` s⁻¹): the modelled network's modes up to
-    √λ, damped c = μ ω²/λ."""
+    """(ω ``(count,)`` rad/s, c ``(count,)`` s⁻¹): the modelled network's modes up
+    to √λ, damped c = μ ω²/λ."""
     omega = math.sqrt(stiffness_rate) * np.linspace(1.0 / count, 1.0, count)
     return omega, damping_rate * omega ** 2 / stiffness_rate
 

@@ -344,7 +344,7 @@ def implicit_damping_paragraph(steps: dict, safety: float) -> list[str]:
         "its neighbours (C = βK over the bond network), so the step would solve "
         "(M + hC) v' = M v + h f each time. Taking only each dof's own damping implicitly "
         "(its neighbours' at the last step) needs no solve, but is the same as adding h C_ii "
-        "to the dof's mass: the last column (median over the voxels' sliding dofs, at "
+        "to the dof's mass: the h C_ii / m column (median over the voxels' sliding dofs, at "
         "mjregen's step) says by how much, relatively, and that extra mass would slow the "
         "slow modes, the gait, as much as the fast ones. The full solve by conjugate "
         "gradients costs one bond-damping pass (most of a step's work) per iteration, and "
@@ -369,9 +369,9 @@ def rotational_inertia_paragraph(steps: dict) -> list[str]:
         "particle codes) cannot lengthen the step much: at its extreme, the rotations held "
         "still, the damped limit grows by only "
         f"{100 * (min(gains.values()) - 1):.1f}–{100 * (max(gains.values()) - 1):.1f} % "
-        f"(last column; most on the {DOC_ROBOTS.get(most, most)}). The fastest modes slide "
-        "the voxels against each other (axial and transverse bond modes), so their rate is "
-        "set by the voxels' mass, which is the physics.",
+        f"(the table's last column; most on the {DOC_ROBOTS.get(most, most)}). The fastest "
+        "modes slide the voxels against each other (axial and transverse bond modes), so "
+        "their rate is set by the voxels' mass, which is the physics.",
     ]
 
 
@@ -594,7 +594,7 @@ def performance_doc(report: dict, extra: dict, evolution: dict | None,
         "blocks of one soft material, where the engine's step is the limit's and mjregen's "
         f"{safety:g} of it: that margin, not the cost of a step, is the ratio's remainder. A "
         "longer step at the same accuracy needs another integrator for the overdamped modes "
-        "(their damping sets the limit), to be judged against the engine's recordings.",
+        "(their damping sets the limit); the paragraphs below measure the candidates.",
     ]
     lines += rotational_inertia_paragraph(steps)
     lines += implicit_damping_paragraph(steps, safety)
