@@ -69,8 +69,8 @@ def chebyshev_scheme(stages: int, damping: float = CHEBYSHEV_DAMPING) -> Amplifi
 
 
 def stability_limit(scheme: Amplification, stiffness_rate: float, damping_rate: float) -> float:
-    """s: the longest step at which `scheme` amplifies no mode of the network (bisection;
-    the stable steps are taken to be one interval from 0)."""
+    """s: the longest step at which `scheme` amplifies no mode of the network (the stable
+    steps are taken to be one interval from 0)."""
     omega, c = network_modes(stiffness_rate, damping_rate)
 
     def stable(h: float) -> bool:
@@ -79,10 +79,18 @@ def stability_limit(scheme: Amplification, stiffness_rate: float, damping_rate: 
     high = 1.0 / math.sqrt(stiffness_rate)
     while stable(high):
         high *= 2.0
+    return _longest(stable, high)
+
+
+def _longest(holds: Callable[[float], bool], high: float) -> float:
+    """The longest step in [0, high] up to which `holds` (true from 0 up to it, false
+    beyond): `high` if it holds there, else by bisection."""
+    if holds(high):
+        return high
     low = 0.0
     for _ in range(BISECTIONS):
         middle = 0.5 * (low + high)
-        low, high = (middle, high) if stable(middle) else (low, middle)
+        low, high = (middle, high) if holds(middle) else (low, middle)
     return low
 
 
@@ -100,29 +108,22 @@ def comparison(stiffness_rate: float, damping_rate: float, safety: float, omega:
     semi-implicit Euler's, the damping it keeps at `safety` of its own limit at the mode
     `omega` rad/s, and its longest step keeping `kept` of that damping, over semi-implicit
     Euler's step at `safety` (per force evaluation: divide by the stages)."""
-    euler_limit = stability_limit(semi_implicit_euler, stiffness_rate, damping_rate)
-    reference = safety * euler_limit
     rows = []
     for count, scheme in [(1, semi_implicit_euler)] + [(s, chebyshev_scheme(s)) for s in stages]:
         limit = stability_limit(scheme, stiffness_rate, damping_rate)
-        step = safety * limit
 
         def keeps(h: float, scheme: Amplification = scheme) -> bool:
             return damping_kept(scheme, h, omega, stiffness_rate, damping_rate) >= kept
 
-        low, high = 0.0, limit
-        if keeps(high):
-            low = high
-        else:
-            for _ in range(BISECTIONS):
-                middle = 0.5 * (low + high)
-                low, high = (middle, high) if keeps(middle) else (low, middle)
         rows.append({"scheme": "semi-implicit Euler" if scheme is semi_implicit_euler
-                     else f"RKC {count}", "evaluations": count,
-                     "limit": limit / euler_limit,
-                     "damping_kept": damping_kept(scheme, step, omega, stiffness_rate,
-                                                  damping_rate),
-                     "step_keeping": low / reference})
+                     else f"RKC {count}", "evaluations": count, "limit": limit,
+                     "damping_kept": damping_kept(scheme, safety * limit, omega,
+                                                  stiffness_rate, damping_rate),
+                     "step_keeping": _longest(keeps, limit)})
+    euler_limit = rows[0]["limit"]
+    for row in rows:
+        row["limit"] /= euler_limit
+        row["step_keeping"] /= safety * euler_limit
     return rows
 
 

@@ -41,8 +41,8 @@ import numpy as np
 from mjregen.experiments.paper import list_runs
 from mjregen.grid import Robot
 from mjregen.physics import Physics, timestep
-from mjregen.physics.compile import CompiledRobot, compile_robot
-from mjregen.physics.model import engine_floor_constants, robot_layout
+from mjregen.physics.compile import CompiledRobot, compile_robot, network_rule_rates
+from mjregen.physics.model import robot_layout
 from mjregen.physics.simulation import simulate, simulation_of
 from mjregen.plugin_cache import FLAGS, cpu_features
 
@@ -213,19 +213,11 @@ def step_analysis(robots_by_name: dict[str, Robot]) -> dict:
 
 
 def held_rates(compiled: CompiledRobot, held: np.ndarray) -> tuple[float, float]:
-    """(λ s⁻², μ s⁻¹) of the network rule of an unclamped `compiled` robot (the engine floor
-    under every voxel, as the rule takes it) with the dofs `held` still."""
-    physics = compiled.physics
-    layout = robot_layout(compiled.robot, physics, set(), 0.0)
-    stiffness, damping = engine_floor_constants(layout, physics)
-    floor_k, floor_c = timestep.engine_floor_rates(
-        compiled.model, compiled.body_ids, dim=compiled.robot.dim, stiffness=stiffness,
-        damping=damping, masses=compiled.masses)
-    rates = timestep.network_rates(compiled.model, voxel_size=physics.scene.voxel_size,
-                                   instance=compiled.plugin_instance, floor_stiffness=floor_k,
-                                   floor_damping=floor_c, held=held)
-    stiffening = timestep.strain_stiffening(compiled.beams, physics.scene)
-    return stiffening * rates[0], stiffening * rates[1]
+    """(λ s⁻², μ s⁻¹) of the network rule of an unclamped `compiled` robot with the dofs
+    `held` still."""
+    layout = robot_layout(compiled.robot, compiled.physics, set(), 0.0)
+    return network_rule_rates(compiled.model, layout, compiled.physics, compiled.bonds,
+                              compiled.beams, held=held)
 
 
 def chaos(robot: Robot, runs: int = 6, size: float = 1e-13) -> dict:

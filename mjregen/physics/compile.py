@@ -138,7 +138,7 @@ def compile_robot(
     model = spec.compile()
     rates = None
     if physics.pipeline.timestep_rule == "network" and layout.bonds:
-        rates = _network_rates(model, layout, physics, table, beams)
+        rates = network_rule_rates(model, layout, physics, table, beams)
         step = physics.scene.timestep_safety * timestep.stable_step(*rates)
         # a network is never stiffer than a block of its stiffest bond (measured: its step
         # is 1.46-3.7 times the block's); far below that, the estimate itself failed
@@ -157,11 +157,13 @@ def compile_robot(
         bonds=table, beams=beams, network_rates=rates)
 
 
-def _network_rates(model: mujoco.MjModel, layout: RobotLayout, physics: Physics,
-                   table: BondTable, beams: BeamTable) -> tuple[float, float]:
+def network_rule_rates(model: mujoco.MjModel, layout: RobotLayout, physics: Physics,
+                       table: BondTable, beams: BeamTable, *,
+                       held: np.ndarray | None = None) -> tuple[float, float]:
     """(λ s⁻², μ s⁻¹) of the network rule (`mjregen.physics.timestep`), muscle stiffening
-    included. The pure-MuJoCo pipeline's network is measured on the same robot's plugin
-    model with its tendons, floor off (its contacts are not the engine floor)."""
+    included; `held`: ``(nv,)`` bool, dofs held still (`timestep.network_rates`). The
+    pure-MuJoCo pipeline's network is measured on the same robot's plugin model with its
+    tendons, floor off (its contacts are not the engine floor)."""
     scene, pipeline = physics.scene, physics.pipeline
     if pipeline.name != "voxel":
         if not voxel_plugin.available():
@@ -184,6 +186,7 @@ def _network_rates(model: mujoco.MjModel, layout: RobotLayout, physics: Physics,
             model, voxel_bodies, dim=layout.dim, stiffness=stiffness, damping=damping,
             masses=layout.masses)
     stiffness, damping = timestep.network_rates(model, voxel_size=scene.voxel_size,
-                                                floor_stiffness=floor_k, floor_damping=floor_c)
+                                                floor_stiffness=floor_k, floor_damping=floor_c,
+                                                held=held)
     stiffening = timestep.strain_stiffening(beams, scene)
     return stiffening * stiffness, stiffening * damping

@@ -142,7 +142,7 @@ def test_a_failed_step_estimate_is_an_error_not_a_hang(monkeypatch):
     from mjregen.errors import CompileError
     from mjregen.physics import compile as compile_module
 
-    monkeypatch.setattr(compile_module, "_network_rates", lambda *a: (1e20, 1e12))
+    monkeypatch.setattr(compile_module, "network_rule_rates", lambda *a: (1e20, 1e12))
     with pytest.raises(CompileError, match="time step estimate of this robot failed"):
         compile_robot(Robot.box((2, 1, 1)), physics=NETWORK)
 
