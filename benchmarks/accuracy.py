@@ -71,8 +71,9 @@ from mjregen import physics as physics_module
 from mjregen.grid import Material, Robot
 from mjregen.physics import MujocoPipeline, Physics
 from mjregen.physics.compile import compile_robot
-from mjregen.physics.simulation import Simulation
+from mjregen.physics.simulation import Simulation, shift_positions
 from mjregen.tasks.fitness import VOXEL_COST
+from mjregen.tasks.starts import KEPT
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
@@ -192,19 +193,6 @@ def evaluate(run: Run) -> dict:
     return {"stable": not reason, "reason": reason, "dt": dt, "steps": sim.steps, "cpu": cpu,
             "com_start": start, "com_end": end, "distance": distance, "fitness": fitness,
             "max_speed": speed, "qpos": sim.data.qpos.copy()}
-
-
-def shift_positions(model: mujoco.MjModel, data: mujoco.MjData, sigma: float, seed: int
-                    ) -> None:
-    """Shift every joint's position coordinates (free joints' x, y, z; slides) by normal
-    random amounts of standard deviation `sigma` m."""
-    rng = np.random.default_rng(seed)
-    for j in range(model.njnt):
-        adr = model.jnt_qposadr[j]
-        if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_FREE:
-            data.qpos[adr:adr + 3] += rng.normal(0.0, sigma, 3)
-        elif model.jnt_type[j] == mujoco.mjtJoint.mjJNT_SLIDE:
-            data.qpos[adr] += rng.normal(0.0, sigma)
 
 
 def max_voxel_speed(model: mujoco.MjModel, data: mujoco.MjData) -> float:
@@ -818,21 +806,9 @@ EVOLVED_WALKERS = {
     "walker_2": ROOT / "assets" / "robots" / "walkers" / "walker_2.npy",
     "walker_3": ROOT / "assets" / "robots" / "walkers" / "walker_3.npy",
 }
-KEPT = 0.9  # a walker whose shifted starts walk less than this of its default needs its start
 WALKER_FIELDS = ["robot", "voxels", "mirror", "default",
                  *(f"shift_{p:g}_{stat}" for p in PERTURBATIONS for stat in ("mean", "min", "max")),
                  "safeties_median", "safeties_min", "safeties_max"]
-
-
-def mirror_planes(robot: Robot) -> str:
-    """The axes ("x", "y") across which the robot's body (its bounding box, materials
-    included) is its own mirror image, comma-separated, or "none"."""
-    grid = robot.grid
-    box = tuple(slice(i.min(), i.max() + 1) for i in np.nonzero(grid))
-    body = grid[box]
-    planes = [name for axis, name in ((0, "x"), (1, "y"))
-              if np.array_equal(body, np.flip(body, axis=axis))]
-    return ", ".join(planes) or "none"
 
 
 def walker_rows(results: dict, robots: dict[str, Robot]) -> list[dict]:
@@ -842,7 +818,7 @@ def walker_rows(results: dict, robots: dict[str, Robot]) -> list[dict]:
     for name, robot in robots.items():
         def runs(kind: str) -> np.ndarray:
             return np.array(list(stable_distances(results, name, kind).values()))
-        row = {"robot": name, "voxels": robot.n_voxels, "mirror": mirror_planes(robot),
+        row = {"robot": name, "voxels": robot.n_voxels, "mirror": ", ".join(robot.mirror_axes()) or "none",
                "default": round(results[(name, "default", 0)]["distance"], 4)}
         for size in PERTURBATIONS:
             shifted = runs(f"shift {size:g}")
@@ -969,7 +945,7 @@ def walker_section(walkers: list[dict]) -> str:
                "every robot from one unperturbed start, so it can select a gait that only "
                f"that start produces.{mirror_note} Such a fitness belongs partly to the start, "
                "not to the body: judge evolved robots by their shifted starts' distances as "
-               "well." if fragile else
+               f"well (`mjregen walk ROBOT --shifted-starts {PERTURBED_RUNS}`)." if fragile else
                f"Every walker keeps at least {100 * KEPT:.0f} % of its default distance from "
                f"starts shifted by {first:g} L.")
     return (f"### The shipped evolved walkers\nThe same {PERTURBED_RUNS} shifted starts per "

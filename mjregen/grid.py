@@ -247,6 +247,18 @@ class Robot:
             )
         return int(np.count_nonzero(self._grid == other._grid))
 
+    def mirror_axes(self) -> tuple[str, ...]:
+        """The horizontal axes ("x", "y"; 2D: "x") whose reversal maps the body (its
+        bounding box, materials included) onto itself: the body is its own mirror image
+        across the plane normal to each. () for an empty robot."""
+        if self.is_empty:
+            return ()
+        box = tuple(slice(i.min(), i.max() + 1) for i in np.nonzero(self._grid))
+        body = self._grid[box]
+        horizontal = AXIS_NAMES[self.dim][:-1]
+        return tuple(name for axis, name in enumerate(horizontal)
+                     if np.array_equal(body, np.flip(body, axis=axis)))
+
     def remove_half_space(self, condition: str) -> Robot:
         """Damage: empty every cell whose index satisfies `condition`.
 

@@ -31,6 +31,14 @@ def workers(text: str) -> int:
     return value
 
 
+def positive(text: str) -> int:
+    """argparse type of a count: a whole number >= 1."""
+    value = _whole(text, "the count")
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"a count is a whole number >= 1, got {text}")
+    return value
+
+
 def _whole(text: str, name: str) -> int:
     try:
         return int(text)

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
+import os
 from pathlib import Path
 
 import numpy as np
@@ -13,7 +15,9 @@ from mjregen.cli.common import (
     add_physics_choice,
     material_counts,
     physics_from_args,
+    positive,
     seed,
+    workers,
 )
 from mjregen.errors import MjregenError, OutputExistsError
 from mjregen.grid import Robot
@@ -103,6 +107,8 @@ def _show(args: argparse.Namespace) -> int:
 
 
 def add_walk(subparsers: argparse._SubParsersAction) -> None:
+    from mjregen.tasks.starts import DEFAULT_SHIFT, DEFAULT_STARTS
+
     parser = subparsers.add_parser(
         "walk",
         help="simulate a robot walking and print distance and fitness",
@@ -114,6 +120,21 @@ def add_walk(subparsers: argparse._SubParsersAction) -> None:
     add_physics_arguments(parser)
     parser.add_argument("--trajectory", type=Path, help="also write the COM trajectory (CSV: t, x, y, z in m)")
     parser.add_argument("--force", action="store_true", help="overwrite --trajectory if it exists")
+    starts = parser.add_argument_group(
+        "shifted starts", "Also walk the robot from N starts with every voxel moved by normal "
+        "random amounts (--shift voxel lengths, seeds --shift-seed, +1, ...), and report the "
+        "distances they keep. An evolution scores the unperturbed start only; a robot whose "
+        "shifted starts keep less than 90 % of its distance on average walks partly by that "
+        "start (a body that is its own mirror image keeps its symmetry from it).")
+    starts.add_argument("--shifted-starts", type=positive, metavar="N",
+                        help=f"number of shifted starts (e.g. {DEFAULT_STARTS})")
+    starts.add_argument("--shift", type=float, default=DEFAULT_SHIFT,
+                        help=f"voxel lengths, standard deviation of each voxel's shift "
+                             f"(default {DEFAULT_SHIFT:g}: a rounding's size)")
+    starts.add_argument("--shift-seed", type=seed, default=1,
+                        help="seed of the first shifted start (default 1)")
+    starts.add_argument("--workers", type=workers,
+                        help="threads walking the starts (default: all cores)")
     parser.add_argument("--json", action="store_true", help="print JSON instead of text")
     parser.set_defaults(handler=_walk)
 
@@ -128,8 +149,16 @@ def _walk(args: argparse.Namespace) -> int:
         raise MjregenError(f"{args.robot} holds an empty robot: nothing to walk")
     if args.trajectory is not None and args.trajectory.exists() and not args.force:
         raise OutputExistsError(args.trajectory)
-    result = simulate(robot, physics=physics_from_args(args), duration=args.duration,
-                      record=args.trajectory is not None)
+    if not (math.isfinite(args.shift) and args.shift > 0.0):
+        raise MjregenError(f"--shift must be a finite number of voxel lengths > 0, got {args.shift!r}")
+    physics = physics_from_args(args)
+    record = args.trajectory is not None
+    starts = None
+    if args.shifted_starts is None:
+        result = simulate(robot, physics=physics, duration=args.duration, record=record)
+    else:
+        starts = _shifted_starts(robot, physics, args, record)
+        result = starts.default
     fitness = locomotion_fitness(result)
     if args.trajectory is not None and result.com is not None:
         with atomic_open(args.trajectory, "w") as handle:
@@ -140,8 +169,14 @@ def _walk(args: argparse.Namespace) -> int:
               "fitness": fitness, "stable": result.stable, "reason": result.reason,
               "steps": result.steps, "sim_time": result.sim_time, "timestep": result.timestep,
               "wall_time": result.wall_time, "cpu_time": result.cpu_time}
+    if starts is not None:
+        report["shifted_starts"] = {
+            "starts": len(starts.seeds), "shift": starts.shift, "seeds": list(starts.seeds),
+            "distances": starts.distances.tolist(), "reasons": list(starts.reasons),
+            "mean": starts.mean, "min": starts.low, "max": starts.high, "kept": starts.kept,
+            "depends_on_start": starts.depends_on_start, "mirror_axes": list(starts.mirror_axes)}
     if args.json:
-        print(json.dumps({k: _finite_or_none(v) for k, v in report.items()}))
+        print(json.dumps(_finite_or_none(report)))
         return 0
     verdict = "stable" if result.stable else f"UNSTABLE ({result.reason})"
     dx, dy = result.displacement
@@ -150,7 +185,41 @@ def _walk(args: argparse.Namespace) -> int:
           f"{fitness:.4f}, {verdict}")
     print(f"{result.steps} steps of {result.timestep:.3g} s ({result.sim_time:.3f} s simulated) "
           f"in {result.wall_time:.2f} s wall, {result.cpu_time:.2f} s CPU")
+    if starts is not None:
+        print(_starts_text(starts))
     return 0
+
+
+def _shifted_starts(robot: Robot, physics, args: argparse.Namespace, record: bool):
+    """The walks from the unperturbed start and from --shifted-starts shifted ones."""
+    from mjregen.search.backends import ThreadBackend
+    from mjregen.tasks.starts import shifted_starts
+
+    with ThreadBackend(args.workers or os.cpu_count() or 1) as backend:
+        return shifted_starts(robot, physics=physics, duration=args.duration,
+                              starts=args.shifted_starts, shift=args.shift,
+                              first_seed=args.shift_seed, backend=backend,
+                              record_default=record)
+
+
+def _starts_text(starts) -> str:
+    """The shifted starts' distances and what they say of the robot, for people."""
+    from mjregen.tasks.starts import KEPT
+
+    n, unstable = len(starts.seeds), int(np.count_nonzero(~starts.stable))
+    mirror = (f"its body is its own mirror image across {' and '.join(starts.mirror_axes)}"
+              if starts.mirror_axes else "its body has no mirror plane")
+    lines = [f"{n} shifted starts (each voxel moved by {starts.shift:g} voxel lengths, standard "
+             f"deviation; seeds {starts.seeds[0]}-{starts.seeds[-1]}): distance mean "
+             f"{starts.mean:.4f}, min {starts.low:.4f}, max {starts.high:.4f} voxel lengths, "
+             f"{starts.kept:.0%} of the unperturbed start's; {mirror}"]
+    if unstable:
+        lines.append(f"{unstable} of the {n} shifted walks became unstable: "
+                     + "; ".join(sorted({r for r in starts.reasons if r})))
+    if starts.kept < KEPT:
+        lines.append(f"the shifted starts keep less than {KEPT:.0%} of the distance: this robot "
+                     "walks partly by its exact start, which its fitness scores")
+    return "\n".join(lines)
 
 
 def _finite_or_none(value):

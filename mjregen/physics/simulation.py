@@ -22,6 +22,7 @@ from numpy.typing import ArrayLike
 
 from mjregen.errors import PhysicsParameterError
 from mjregen.grid import Robot
+from mjregen.physics.checks import check_range
 from mjregen.physics.compile import CompiledRobot, compile_robot
 from mjregen.physics.params import Physics
 from mjregen.physics.stepper import NativeStepper, unsupported_on
@@ -242,12 +243,28 @@ def simulation_of(compiled: CompiledRobot) -> Simulation:
                       actuation_start=settle, plugin_instance=compiled.plugin_instance)
 
 
+def shift_positions(model: mujoco.MjModel, data: mujoco.MjData, sigma: float, seed: int
+                    ) -> None:
+    """Move every voxel of `data`'s state by normal random amounts of standard deviation
+    `sigma` m along each of its translational coordinates (free joints' x, y, z; 2D: the
+    slides), drawn from `seed` in joint order; rotations are left as they are."""
+    rng = np.random.default_rng(seed)
+    for j in range(model.njnt):
+        adr = model.jnt_qposadr[j]
+        if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_FREE:
+            data.qpos[adr:adr + 3] += rng.normal(0.0, sigma, 3)
+        elif model.jnt_type[j] == mujoco.mjtJoint.mjJNT_SLIDE:
+            data.qpos[adr] += rng.normal(0.0, sigma)
+
+
 def simulate(
     robot: Robot | ArrayLike,
     *,
     physics: Physics | None = None,
     duration: float | None = None,
     record: bool = False,
+    start_shift: float = 0.0,
+    shift_seed: int = 0,
 ) -> Result:
     """Evaluate a robot's locomotion: settle, actuate, measure.
 
@@ -257,18 +274,29 @@ def simulate(
       physics: materials, scene and pipeline; None = the paper's.
       duration: s of actuation that the distance counts; None = the scene's measured time.
       record: also return the centre-of-mass trajectory (every step).
+      start_shift: voxel lengths; > 0 starts from the rest state with every voxel moved by
+        normal random amounts of this standard deviation (`shift_positions`, seed
+        `shift_seed`), to see how much of the walk belongs to the exact start (a
+        symmetric body keeps its symmetry from the unperturbed start). 0: the unperturbed
+        start, which evolutions score.
+      shift_seed: seed of the shifts (an integer >= 0).
     Returns:
       A `Result`; an unstable run is marked ``stable=False`` (distance NaN) and never
       raises. The locomotion task's fitness: `mjregen.tasks.fitness.locomotion_fitness`.
     Raises:
       InvalidGridError: `robot` is not a valid grid.
-      PhysicsParameterError: `duration` negative or not finite.
+      PhysicsParameterError: `duration` or `start_shift` negative or not finite, a
+        `shift_seed` that is not an integer >= 0.
     """
     wall0, cpu0 = time.perf_counter(), time.process_time()
     robot = robot if isinstance(robot, Robot) else Robot(robot)
     physics = Physics() if physics is None else physics
     if duration is not None and not (math.isfinite(duration) and duration >= 0):
         raise PhysicsParameterError(f"duration must be a finite time >= 0 s, got {duration!r}")
+    check_range("start_shift (voxel lengths)", start_shift, low=0.0, low_open=False)
+    if isinstance(shift_seed, bool) or not isinstance(shift_seed, (int, np.integer)) \
+            or shift_seed < 0:
+        raise PhysicsParameterError(f"shift_seed must be an integer >= 0, got {shift_seed!r}")
     dim = robot.dim
     if robot.is_empty:
         return Result(distance=0.0, dim=dim, n_voxels=0, stable=True,
@@ -281,6 +309,9 @@ def simulate(
     dt = compiled.timestep
     n_settle, n_measure = round(settle / dt), round(measured / dt)
     sim = simulation_of(compiled)
+    if start_shift:
+        shift_positions(compiled.model, sim.data, start_shift * physics.scene.voxel_size,
+                        int(shift_seed))
     com = np.empty((n_settle + n_measure + 1, 3)) if record else None
     reason = sim.run(n_settle, com=None if com is None else com[:n_settle])
     start = sim.com()

@@ -106,6 +106,40 @@ def test_walk_json_equals_simulate(tmp_path, capsys):
     assert "exists" in capsys.readouterr().err
 
 
+def test_walk_from_shifted_starts_reports_what_they_keep(capsys):
+    """walker_2, its own mirror image across y, keeps about half its distance from starts
+    shifted by 1e-9 voxel lengths: the command says so, and its numbers are the library's."""
+    from mjregen.tasks.starts import shifted_starts
+
+    walker = "assets/robots/walkers/walker_2.npy"
+    assert main(["walk", walker, "--shifted-starts", "2", "--workers", "2", "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)["shifted_starts"]
+    expected = shifted_starts(Robot.load(walker), starts=2)
+    assert report["distances"] == expected.distances.tolist() and report["seeds"] == [1, 2]
+    assert report["kept"] == expected.kept < 0.9 and report["depends_on_start"]
+    assert report["mirror_axes"] == ["y"] and report["shift"] == 1e-9
+    assert main(["walk", walker, "--shifted-starts", "2", "--shift-seed", "1"]) == 0
+    text = capsys.readouterr().out
+    assert "2 shifted starts" in text and "mirror image across y" in text
+    assert "walks partly by its exact start" in text
+
+
+@pytest.mark.parametrize("arguments, message", [
+    (["--shifted-starts", "0"], "a count is a whole number >= 1"),
+    (["--shifted-starts", "2", "--workers", "0"], "--workers needs at least 1"),
+])
+def test_walk_refuses_a_bad_count_of_starts_or_workers(capsys, arguments, message):
+    with pytest.raises(SystemExit) as exit_info:
+        main(["walk", WALKER, *arguments])
+    assert exit_info.value.code == 2 and message in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("shift", ["nan", "0", "-1e-9"])
+def test_walk_refuses_a_bad_shift(capsys, shift):
+    assert main(["walk", WALKER, "--shifted-starts", "2", f"--shift={shift}"]) == 1
+    assert "--shift must be a finite number of voxel lengths > 0" in capsys.readouterr().err
+
+
 @pytest.mark.parametrize("name", ["paper", "sphere"])
 def test_walk_with_a_physics_preset(capsys, name):
     from mjregen import physics as presets

@@ -284,3 +284,24 @@ def test_text_view_2d():
     grid[1, 2] = 2
     lines = Robot(grid).to_text().splitlines()
     assert lines[2:] == ["  z=3  . . . . .", "  z=2  . H . . .", "  z=1  . s s . .", "  z=0  . . . . ."]
+
+
+def test_mirror_axes_of_a_body_are_found_in_its_bounding_box():
+    plate = np.zeros((7, 7, 7), dtype=np.int8)
+    plate[2:5, 2, 1:3] = 3  # one voxel thick in y, off-centre in the grid
+    assert Robot(plate).mirror_axes() == ("x", "y")
+    plate[2, 2, 1] = 4  # a different material at one end: no longer mirrored in x
+    assert Robot(plate).mirror_axes() == ("y",)
+    plate[2:5, 3, 1] = 1  # a second, partial layer: no mirror plane across y either
+    assert Robot(plate).mirror_axes() == ()
+
+
+def test_mirror_axes_are_horizontal_only():
+    """A 2D robot mirrors across x only (z is up: a body symmetric top to bottom is not a
+    symmetry of its walk); an empty robot has none."""
+    sheet = np.zeros((7, 7), dtype=np.int8)
+    sheet[2:5, 1:4] = 1  # symmetric in x and in z
+    assert Robot(sheet).mirror_axes() == ("x",)
+    sheet[2, 1] = 3
+    assert Robot(sheet).mirror_axes() == ()
+    assert Robot(np.zeros((9, 9, 9), dtype=np.int8)).mirror_axes() == ()

@@ -16,8 +16,6 @@ import pytest
 
 from mjregen.grid import Material, Robot
 from mjregen.physics import MujocoPipeline, Physics
-from mjregen.physics.compile import compile_robot
-from mjregen.physics.simulation import simulation_of
 
 _SPEC = importlib.util.spec_from_file_location(
     "accuracy_benchmark", Path(__file__).resolve().parents[2] / "benchmarks" / "accuracy.py")
@@ -183,31 +181,6 @@ def test_stability_search_finds_the_damped_block_limit():
     case = accuracy.Case("soft block 4^3 zeta 2", heavily_damped_block())
     row = accuracy.stability_search(case, iterations=2)
     assert float(row["max_stable_safety"]) < Physics().scene.timestep_safety
-
-
-def test_perturbed_start_shifts_only_the_positions_by_the_given_size():
-    """`Run.perturb`: every voxel's initial centre moves by normal amounts of the given size
-    (voxel lengths), its orientation stays; the same seed, the same shift."""
-    robot = Robot.box((4, 4, 4))
-    compiled = compile_robot(robot)
-    shifted = []
-    for seed in (1, 1, 2):
-        sim = simulation_of(compiled)
-        accuracy.shift_positions(sim.model, sim.data, 1e-12, seed)
-        shifted.append(sim.data.qpos.reshape(-1, 7) - compiled.model.qpos0.reshape(-1, 7))
-    assert np.array_equal(shifted[0], shifted[1]) and not np.array_equal(shifted[0], shifted[2])
-    assert np.all(shifted[0][:, 3:] == 0.0)
-    assert np.std(shifted[0][:, :3]) == pytest.approx(1e-12, rel=0.2)
-
-
-def test_mirror_planes_of_a_body_are_found_in_its_bounding_box():
-    plate = np.zeros((7, 7, 7), dtype=np.int8)
-    plate[2:5, 2, 1:3] = 3  # one voxel thick in y, off-centre in the grid
-    assert accuracy.mirror_planes(Robot(plate)) == "x, y"
-    plate[2, 2, 1] = 4  # a different material at one end: no longer mirrored in x
-    assert accuracy.mirror_planes(Robot(plate)) == "y"
-    plate[2:5, 3, 1] = 1  # a second, partial layer: no mirror plane across y either
-    assert accuracy.mirror_planes(Robot(plate)) == "none"
 
 
 def test_walker_rows_summarise_shifted_starts_and_safeties():

@@ -1,0 +1,171 @@
+"""How much of a robot's walk belongs to its exact start: the walk from shifted starts.
+
+An evolution scores each robot from one start, the unperturbed rest state. A body that is
+its own mirror image keeps that symmetry from there (nothing in the physics breaks it) and
+may walk a way that a shift of a rounding's size ends; any gait near a parting of ways
+(a stick–slip event, a stride that flips) may likewise depend on it. `shifted_starts`
+walks the robot from that start and from `starts` others, each with every voxel moved by
+normal random amounts of `shift` voxel lengths (`mjregen.physics.simulation.simulate`'s
+``start_shift``; seeds `first_seed`, `first_seed` + 1, ...), so that a user can judge
+the robot by the distances it keeps.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from mjregen.errors import MjregenError
+from mjregen.grid import Robot
+
+# the physics (and MuJoCo) load on first use: the command line reads this module's defaults
+# while building its parser, before it chooses MuJoCo's GL backend
+if TYPE_CHECKING:
+    from mjregen.physics import Physics
+    from mjregen.physics.simulation import Result
+    from mjregen.search.backends import Backend
+
+KEPT = 0.9  # a robot whose shifted starts keep less of its distance than this on average
+#             walks, from the unperturbed start, partly by that start
+DEFAULT_SHIFT = 1e-9  # voxel lengths: a rounding's size at the paper's 1 mm voxels
+DEFAULT_STARTS = 20
+
+
+@dataclass(frozen=True)
+class StartJob:
+    """One walk: a robot grid (int8), its physics, measured time (s; None = the scene's),
+    the start's shift (voxel lengths, 0 = unperturbed), the shift's seed, and whether to
+    record the centre-of-mass trajectory."""
+
+    grid: np.ndarray
+    physics: Physics
+    duration: float | None
+    shift: float
+    seed: int
+    record: bool = False
+
+
+def walk_from(job: StartJob) -> Result:
+    """`simulate` the job's robot from its start (the backends' function)."""
+    from mjregen.physics.simulation import simulate
+
+    return simulate(Robot(job.grid), physics=job.physics, duration=job.duration,
+                    record=job.record, start_shift=job.shift, shift_seed=job.seed)
+
+
+@dataclass(frozen=True)
+class ShiftedStarts:
+    """The walk from the unperturbed start and from the shifted ones.
+
+    Attributes:
+      default: the unperturbed start's `Result` (what an evolution scores).
+      shift: voxel lengths, standard deviation of every voxel's shift.
+      seeds: ``(starts,)`` the shifted starts' seeds.
+      distances: ``(starts,)`` voxel lengths from each shifted start; NaN where that walk
+        became unstable.
+      reasons: why each unstable walk is unstable ("" for the stable ones).
+      mirror_axes: the horizontal axes across which the body is its own mirror image
+        (`Robot.mirror_axes`).
+    """
+
+    default: Result
+    shift: float
+    seeds: tuple[int, ...]
+    distances: np.ndarray
+    reasons: tuple[str, ...]
+    mirror_axes: tuple[str, ...]
+
+    @property
+    def stable(self) -> np.ndarray:
+        """``(starts,)`` bool: the shifted walks that stayed stable."""
+        return np.isfinite(self.distances)
+
+    def _statistic(self, reduce) -> float:
+        kept = self.distances[self.stable]
+        return float(reduce(kept)) if kept.size else math.nan
+
+    @property
+    def mean(self) -> float:
+        """Voxel lengths, the mean distance of the stable shifted walks (NaN if none)."""
+        return self._statistic(np.mean)
+
+    @property
+    def low(self) -> float:
+        """Voxel lengths, the shortest stable shifted walk (NaN if none)."""
+        return self._statistic(np.min)
+
+    @property
+    def high(self) -> float:
+        """Voxel lengths, the longest stable shifted walk (NaN if none)."""
+        return self._statistic(np.max)
+
+    @property
+    def kept(self) -> float:
+        """`mean` / the unperturbed start's distance; NaN when that walk is unstable or
+        did not move."""
+        default = self.default.distance
+        if not (math.isfinite(default) and default > 0.0):
+            return math.nan
+        return self.mean / default
+
+    @property
+    def depends_on_start(self) -> bool:
+        """The shifted walks keep less than KEPT of the unperturbed start's distance on
+        average, or some of them became unstable."""
+        return bool(self.kept < KEPT) or not bool(np.all(self.stable))
+
+
+def shifted_starts(robot: Robot, *, physics: Physics | None = None,
+                   duration: float | None = None, starts: int = DEFAULT_STARTS,
+                   shift: float = DEFAULT_SHIFT, first_seed: int = 1,
+                   backend: Backend | None = None, record_default: bool = False
+                   ) -> ShiftedStarts:
+    """Walk `robot` from the unperturbed start and from `starts` shifted ones.
+
+    Args:
+      robot: a non-empty `Robot`.
+      physics: None = the paper's.
+      duration: s of actuation that the distance counts; None = the scene's measured time.
+      starts: number of shifted starts (>= 1).
+      shift: voxel lengths, > 0: standard deviation of each voxel's shift.
+      first_seed: the first shifted start's seed (then +1 each); >= 0.
+      backend: a `mjregen.search.backends.Backend` to run the walks on (None: in this
+        process, one after another); every walk is the same whichever runs it.
+      record_default: record the unperturbed walk's centre-of-mass trajectory
+        (`simulate`'s ``record``).
+    Raises:
+      MjregenError: an empty robot, `starts` < 1, `shift` not a finite number > 0, or a
+        walk that failed on `backend` (its reason).
+      PhysicsParameterError: bad `duration` or `first_seed` (from `simulate`).
+    """
+    if robot.is_empty:
+        raise MjregenError("an empty robot has no walk to start")
+    if isinstance(starts, bool) or not isinstance(starts, int) or starts < 1:
+        raise MjregenError(f"starts must be a whole number >= 1, got {starts!r}")
+    if isinstance(shift, bool) or not isinstance(shift, (int, float)) \
+            or not (math.isfinite(shift) and shift > 0.0):
+        raise MjregenError(f"shift must be a finite number of voxel lengths > 0, got {shift!r}")
+    if physics is None:
+        from mjregen.physics import Physics
+
+        physics = Physics()
+    seeds = tuple(range(first_seed, first_seed + starts))
+    grid = np.asarray(robot.grid)
+    jobs = [StartJob(grid, physics, duration, 0.0, 0, record=record_default)]
+    jobs += [StartJob(grid, physics, duration, float(shift), seed) for seed in seeds]
+    if backend is None:
+        results = [walk_from(job) for job in jobs]
+    else:
+        outcomes = backend.map(walk_from, jobs)
+        for job, outcome in zip(jobs, outcomes):
+            if not outcome.ok:
+                which = f"shifted start (seed {job.seed})" if job.shift else "unperturbed start"
+                raise MjregenError(f"the walk from the {which} failed: {outcome.error}")
+        results = [outcome.value for outcome in outcomes]
+    return ShiftedStarts(
+        default=results[0], shift=float(shift), seeds=seeds,
+        distances=np.array([r.distance for r in results[1:]], dtype=float),
+        reasons=tuple(r.reason for r in results[1:]), mirror_axes=robot.mirror_axes())
