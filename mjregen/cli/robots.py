@@ -209,10 +209,12 @@ def _starts_text(starts) -> str:
     n, unstable = len(starts.seeds), int(np.count_nonzero(~starts.stable))
     mirror = (f"its body is its own mirror image across {' and '.join(starts.mirror_axes)}"
               if starts.mirror_axes else "its body has no mirror plane")
+    share = ("" if math.isnan(starts.kept)
+             else f", {starts.kept:.0%} of the unperturbed start's")
     lines = [f"{n} shifted starts (each voxel moved by {starts.shift:g} voxel lengths, standard "
              f"deviation; seeds {starts.seeds[0]}-{starts.seeds[-1]}): distance mean "
-             f"{starts.mean:.4f}, min {starts.low:.4f}, max {starts.high:.4f} voxel lengths, "
-             f"{starts.kept:.0%} of the unperturbed start's; {mirror}"]
+             f"{starts.mean:.4f}, min {starts.low:.4f}, max {starts.high:.4f} voxel lengths"
+             f"{share}; {mirror}"]
     if unstable:
         lines.append(f"{unstable} of the {n} shifted walks became unstable: "
                      + "; ".join(sorted({r for r in starts.reasons if r})))
@@ -223,7 +225,10 @@ def _starts_text(starts) -> str:
 
 
 def _finite_or_none(value):
-    """`value` for JSON: NaN (an unstable run's numbers) becomes null, in lists too."""
+    """`value` for JSON: NaN (an unstable run's numbers) becomes null, in lists and
+    dicts too."""
+    if isinstance(value, dict):
+        return {k: _finite_or_none(v) for k, v in value.items()}
     if isinstance(value, list):
         return [_finite_or_none(v) for v in value]
     return None if isinstance(value, float) and np.isnan(value) else value

@@ -30,6 +30,7 @@ if TYPE_CHECKING:
 
 KEPT = 0.9  # a robot whose shifted starts keep less of its distance than this on average
 #             walks, from the unperturbed start, partly by that start
+STILL = 1e-3  # voxel lengths: an unperturbed walk shorter than this is no walk to keep
 DEFAULT_SHIFT = 1e-9  # voxel lengths: a rounding's size at the paper's 1 mm voxels
 DEFAULT_STARTS = 20
 
@@ -105,9 +106,9 @@ class ShiftedStarts:
     @property
     def kept(self) -> float:
         """`mean` / the unperturbed start's distance; NaN when that walk is unstable or
-        did not move."""
+        shorter than STILL (the robot does not walk)."""
         default = self.default.distance
-        if not (math.isfinite(default) and default > 0.0):
+        if not (math.isfinite(default) and default >= STILL):
             return math.nan
         return self.mean / default
 

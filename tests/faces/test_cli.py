@@ -124,6 +124,15 @@ def test_walk_from_shifted_starts_reports_what_they_keep(capsys):
     assert "walks partly by its exact start" in text
 
 
+def test_walk_json_of_starts_that_did_not_walk_is_valid_json(capsys):
+    """The shifted starts' numbers that are NaN (here the share: no walk to keep) are null."""
+    assert main(["walk", WALKER, "--shifted-starts", "2", "--settle", "0.005", "--duration",
+                 "0", "--json"]) == 0
+    out = capsys.readouterr().out
+    report = json.loads(out, parse_constant=lambda name: pytest.fail(f"{name} in JSON"))
+    assert report["distance"] == 0.0 and report["shifted_starts"]["kept"] is None
+
+
 @pytest.mark.parametrize("arguments, message", [
     (["--shifted-starts", "0"], "a count is a whole number >= 1"),
     (["--shifted-starts", "2", "--workers", "0"], "--workers needs at least 1"),

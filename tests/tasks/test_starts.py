@@ -11,7 +11,7 @@ from mjregen.physics import Physics
 from mjregen.physics.simulation import simulate
 from mjregen.resources import asset
 from mjregen.search.backends import ThreadBackend
-from mjregen.tasks.starts import KEPT, shifted_starts
+from mjregen.tasks.starts import KEPT, STILL, shifted_starts
 
 WALKERS = asset("robots", "walkers")
 SHORT = Physics().replace(settle_time=0.01)
@@ -61,6 +61,14 @@ def test_an_unstable_shifted_walk_counts_as_depending_on_the_start():
     assert not np.any(starts.stable) and all(starts.reasons)
     assert math.isnan(starts.mean) and math.isnan(starts.kept)
     assert starts.depends_on_start
+
+
+def test_a_robot_that_does_not_walk_has_no_share_to_keep():
+    """The in-phase robot, mirrored across x and y, stays where it is (its net displacement
+    cancels): its shifted starts' distances are rounding, not a share of a walk."""
+    starts = shifted_starts(Robot.load(asset("robots", "symmetric_inphase_3d.npy")), starts=2)
+    assert starts.default.distance < STILL and starts.mirror_axes == ("x", "y")
+    assert math.isnan(starts.kept) and not starts.depends_on_start
 
 
 @pytest.mark.parametrize("kwargs, message", [
