@@ -604,6 +604,16 @@ def performance_doc(report: dict, extra: dict, evolution: dict | None,
             + " of 100; the GA's cache skips repeated genomes). Best fitness per generation: "
             + ", ".join(f"{b:.2f}" for b in evolution["best"]) + ".",
         ]
+        sizes = evolution.get("mean_voxels_per_generation")
+        if sizes:
+            lines[-1] += " Mean voxels per robot: " + ", ".join(f"{v:.0f}" for v in sizes) + "."
+            wall = evolution["generation_wall_s"]
+            if len(sizes) > 1 and sizes[0] > max(sizes[1:]) and wall[0] == max(wall):
+                lines[-1] += (
+                    " The first generation's random NCAs grow the largest robots (the paper's "
+                    "initial genes fill much of the grid) and a step costs in proportion to "
+                    "the voxels, so that generation is the slowest however few robots it "
+                    "simulates; selection, with the voxel cost in the fitness, shrinks them.")
     if recorded:
         lines += [
             "",

@@ -130,7 +130,7 @@ def add_walk(subparsers: argparse._SubParsersAction) -> None:
                         help=f"number of shifted starts (e.g. {DEFAULT_STARTS})")
     starts.add_argument("--shift", type=float, default=DEFAULT_SHIFT,
                         help=f"voxel lengths, standard deviation of each voxel's shift "
-                             f"(default {DEFAULT_SHIFT:g}: a rounding's size)")
+                             f"(default {DEFAULT_SHIFT:g}: 1e-12 m at 1 mm voxels)")
     starts.add_argument("--shift-seed", type=seed, default=1,
                         help="seed of the first shifted start (default 1)")
     starts.add_argument("--workers", type=workers,

@@ -2,7 +2,7 @@
 
 An evolution scores each robot from one start, the unperturbed rest state. A body that is
 its own mirror image keeps that symmetry from there (nothing in the physics breaks it) and
-may walk a way that a shift of a rounding's size ends; any gait near a parting of ways
+may walk a way that a shift far below anything measurable ends; any gait near a parting of ways
 (a stick–slip event, a stride that flips) may likewise depend on it. `shifted_starts`
 walks the robot from that start and from `starts` others, each with every voxel moved by
 normal random amounts of `shift` voxel lengths (`mjregen.physics.simulation.simulate`'s
@@ -31,7 +31,7 @@ if TYPE_CHECKING:
 KEPT = 0.9  # a robot whose shifted starts keep less of its distance than this on average
 #             walks, from the unperturbed start, partly by that start
 STILL = 1e-3  # voxel lengths: an unperturbed walk shorter than this is no walk to keep
-DEFAULT_SHIFT = 1e-9  # voxel lengths: a rounding's size at the paper's 1 mm voxels
+DEFAULT_SHIFT = 1e-9  # voxel lengths (1e-12 m at the paper's 1 mm voxels)
 DEFAULT_STARTS = 20
 
 

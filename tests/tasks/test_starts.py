@@ -19,7 +19,7 @@ SHORT = Physics().replace(settle_time=0.01)
 
 def test_a_mirror_symmetric_walker_loses_its_walk_from_shifted_starts():
     """walker_2 is its own mirror image across y: from the unperturbed start it keeps that
-    symmetry and walks a way that a shift of a rounding's size (1e-9 voxel lengths) ends."""
+    symmetry and walks a way that a shift of 1e-9 voxel lengths ends."""
     robot = Robot.load(WALKERS / "walker_2.npy")
     starts = shifted_starts(robot, starts=3)
     assert starts.mirror_axes == ("y",)
