@@ -818,7 +818,8 @@ def walker_rows(results: dict, robots: dict[str, Robot]) -> list[dict]:
     for name, robot in robots.items():
         def runs(kind: str) -> np.ndarray:
             return np.array(list(stable_distances(results, name, kind).values()))
-        row = {"robot": name, "voxels": robot.n_voxels, "mirror": ", ".join(robot.mirror_axes()) or "none",
+        row = {"robot": name, "voxels": robot.n_voxels,
+               "mirror": ", ".join(robot.mirror_axes()) or "none",
                "default": round(results[(name, "default", 0)]["distance"], 4)}
         for size in PERTURBATIONS:
             shifted = runs(f"shift {size:g}")

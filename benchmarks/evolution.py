@@ -29,9 +29,10 @@ import numpy as np
 from mjregen.growth.nca import NCAConfig
 from mjregen.growth.networks import random_genomes
 from mjregen.physics import Physics
-from mjregen.search.backends import make_backend
+from mjregen.search.backends import Backend, make_backend
 from mjregen.search.ga import PRESETS
 from mjregen.search.runs import run_evolution
+from mjregen.tasks.evaluation import PopulationEvaluation
 from mjregen.tasks.locomotion import LocomotionTask
 
 
@@ -84,7 +85,7 @@ class SizeRecordingTask(LocomotionTask):
 
     sizes: list = field(default_factory=list, compare=False, repr=False)
 
-    def evaluate(self, genomes, backend):
+    def evaluate(self, genomes: np.ndarray, backend: Backend) -> PopulationEvaluation:
         result = super().evaluate(genomes, backend)
         self.sizes.append(float(np.mean(result.details["voxels"])))
         return result

@@ -107,7 +107,7 @@ def _show(args: argparse.Namespace) -> int:
 
 
 def add_walk(subparsers: argparse._SubParsersAction) -> None:
-    from mjregen.tasks.starts import DEFAULT_SHIFT, DEFAULT_STARTS
+    from mjregen.tasks.starts import DEFAULT_FIRST_SEED, DEFAULT_SHIFT, DEFAULT_STARTS
 
     parser = subparsers.add_parser(
         "walk",
@@ -128,11 +128,11 @@ def add_walk(subparsers: argparse._SubParsersAction) -> None:
         "start (a body that is its own mirror image keeps its symmetry from it).")
     starts.add_argument("--shifted-starts", type=positive, metavar="N",
                         help=f"number of shifted starts (e.g. {DEFAULT_STARTS})")
-    starts.add_argument("--shift", type=float, default=DEFAULT_SHIFT,
+    starts.add_argument("--shift", type=float,
                         help=f"voxel lengths, standard deviation of each voxel's shift "
                              f"(default {DEFAULT_SHIFT:g}: 1e-12 m at 1 mm voxels)")
-    starts.add_argument("--shift-seed", type=seed, default=1,
-                        help="seed of the first shifted start (default 1)")
+    starts.add_argument("--shift-seed", type=seed,
+                        help=f"seed of the first shifted start (default {DEFAULT_FIRST_SEED})")
     starts.add_argument("--workers", type=workers,
                         help="threads walking the starts (default: all cores)")
     parser.add_argument("--json", action="store_true", help="print JSON instead of text")
@@ -149,8 +149,11 @@ def _walk(args: argparse.Namespace) -> int:
         raise MjregenError(f"{args.robot} holds an empty robot: nothing to walk")
     if args.trajectory is not None and args.trajectory.exists() and not args.force:
         raise OutputExistsError(args.trajectory)
-    if not (math.isfinite(args.shift) and args.shift > 0.0):
-        raise MjregenError(f"--shift must be a finite number of voxel lengths > 0, got {args.shift!r}")
+    if args.shifted_starts is None and (args.shift, args.shift_seed, args.workers) != (None,) * 3:
+        raise MjregenError("--shift, --shift-seed and --workers are for --shifted-starts N")
+    if args.shift is not None and not (math.isfinite(args.shift) and args.shift > 0.0):
+        raise MjregenError(f"--shift must be a finite number of voxel lengths > 0, "
+                           f"got {args.shift!r}")
     physics = physics_from_args(args)
     record = args.trajectory is not None
     starts = None
@@ -193,13 +196,14 @@ def _walk(args: argparse.Namespace) -> int:
 def _shifted_starts(robot: Robot, physics, args: argparse.Namespace, record: bool):
     """The walks from the unperturbed start and from --shifted-starts shifted ones."""
     from mjregen.search.backends import ThreadBackend
-    from mjregen.tasks.starts import shifted_starts
+    from mjregen.tasks.starts import DEFAULT_FIRST_SEED, DEFAULT_SHIFT, shifted_starts
 
+    shift = DEFAULT_SHIFT if args.shift is None else args.shift
+    first_seed = DEFAULT_FIRST_SEED if args.shift_seed is None else args.shift_seed
     with ThreadBackend(args.workers or os.cpu_count() or 1) as backend:
         return shifted_starts(robot, physics=physics, duration=args.duration,
-                              starts=args.shifted_starts, shift=args.shift,
-                              first_seed=args.shift_seed, backend=backend,
-                              record_default=record)
+                              starts=args.shifted_starts, shift=shift, first_seed=first_seed,
+                              backend=backend, record_default=record)
 
 
 def _starts_text(starts) -> str:
@@ -211,10 +215,11 @@ def _starts_text(starts) -> str:
               if starts.mirror_axes else "its body has no mirror plane")
     share = ("" if math.isnan(starts.kept)
              else f", {starts.kept:.0%} of the unperturbed start's")
+    distances = (f"distance mean {starts.mean:.4f}, min {starts.low:.4f}, max "
+                 f"{starts.high:.4f} voxel lengths{share}" if unstable < n
+                 else "no shifted walk stayed stable")
     lines = [f"{n} shifted starts (each voxel moved by {starts.shift:g} voxel lengths, standard "
-             f"deviation; seeds {starts.seeds[0]}-{starts.seeds[-1]}): distance mean "
-             f"{starts.mean:.4f}, min {starts.low:.4f}, max {starts.high:.4f} voxel lengths"
-             f"{share}; {mirror}"]
+             f"deviation; seeds {starts.seeds[0]}-{starts.seeds[-1]}): {distances}; {mirror}"]
     if unstable:
         lines.append(f"{unstable} of the {n} shifted walks became unstable: "
                      + "; ".join(sorted({r for r in starts.reasons if r})))

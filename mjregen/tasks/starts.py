@@ -33,6 +33,7 @@ KEPT = 0.9  # a robot whose shifted starts keep less of its distance than this o
 STILL = 1e-3  # voxel lengths: an unperturbed walk shorter than this is no walk to keep
 DEFAULT_SHIFT = 1e-9  # voxel lengths (1e-12 m at the paper's 1 mm voxels)
 DEFAULT_STARTS = 20
+DEFAULT_FIRST_SEED = 1  # seed 0 is simulate's default, kept for the unperturbed start
 
 
 @dataclass(frozen=True)
@@ -121,7 +122,7 @@ class ShiftedStarts:
 
 def shifted_starts(robot: Robot, *, physics: Physics | None = None,
                    duration: float | None = None, starts: int = DEFAULT_STARTS,
-                   shift: float = DEFAULT_SHIFT, first_seed: int = 1,
+                   shift: float = DEFAULT_SHIFT, first_seed: int = DEFAULT_FIRST_SEED,
                    backend: Backend | None = None, record_default: bool = False
                    ) -> ShiftedStarts:
     """Walk `robot` from the unperturbed start and from `starts` shifted ones.

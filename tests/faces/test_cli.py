@@ -143,6 +143,13 @@ def test_walk_refuses_a_bad_count_of_starts_or_workers(capsys, arguments, messag
     assert exit_info.value.code == 2 and message in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("arguments", [["--shift", "1e-6"], ["--shift-seed", "3"],
+                                       ["--workers", "2"]])
+def test_walk_refuses_shifted_start_options_without_shifted_starts(capsys, arguments):
+    assert main(["walk", WALKER, *arguments]) == 1
+    assert "are for --shifted-starts N" in capsys.readouterr().err
+
+
 @pytest.mark.parametrize("shift", ["nan", "0", "-1e-9"])
 def test_walk_refuses_a_bad_shift(capsys, shift):
     assert main(["walk", WALKER, "--shifted-starts", "2", f"--shift={shift}"]) == 1
