@@ -33,7 +33,7 @@ KEPT = 0.9  # a robot whose shifted starts keep less of its distance than this o
 STILL = 1e-3  # voxel lengths: an unperturbed walk shorter than this is no walk to keep
 DEFAULT_SHIFT = 1e-9  # voxel lengths (1e-12 m at the paper's 1 mm voxels)
 DEFAULT_STARTS = 20
-DEFAULT_FIRST_SEED = 1  # seed 0 is simulate's default, kept for the unperturbed start
+DEFAULT_FIRST_SEED = 1  # the shifted starts draw seeds 1, 2, ... (as benchmarks/accuracy.py does)
 
 
 @dataclass(frozen=True)
