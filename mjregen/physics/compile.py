@@ -17,7 +17,7 @@ import numpy as np
 
 from mjregen.errors import CompileError, PhysicsParameterError
 from mjregen.grid import Robot
-from mjregen.physics import mjcf, timestep, voxel_plugin
+from mjregen.physics import mjcf, start_state, timestep, voxel_plugin
 from mjregen.physics.model import (
     BeamTable,
     RobotLayout,
@@ -55,6 +55,10 @@ class CompiledRobot:
         eigenvalues of M⁻¹K and M⁻¹C, muscle stiffening included: the step is
         `timestep_safety` × `timestep.stable_step(λ, μ)` before rounding), or None (the
         stiffest-bond rule, or no bonds).
+      starts: the indices of the starts the model holds as keyframes ``start_<index>``
+        (`mjregen.physics.start_state`); empty when the scene's start shift is 0 (every walk
+        starts at ``qpos0``, every voxel exactly at its grid position).
+      start_seed: the seed those starts were drawn with.
     """
 
     robot: Robot
@@ -70,6 +74,22 @@ class CompiledRobot:
     bonds: BondTable
     beams: BeamTable
     network_rates: tuple[float, float] | None = None
+    starts: tuple[int, ...] = ()
+    start_seed: int = 0
+
+    def start_key(self, index: int) -> int | None:
+        """The keyframe id of start `index`, or None when walks start at ``qpos0`` (start
+        shift 0).
+
+        Raises:
+          CompileError: the model holds starts, but not this one.
+        """
+        if not self.starts:
+            return None
+        if index not in self.starts:
+            raise CompileError(f"start {index} was not compiled into this model (it holds "
+                               f"starts {', '.join(map(str, self.starts))})")
+        return self.model.key(start_state.key_name(index)).id
 
     @property
     def timestep(self) -> float:
@@ -93,6 +113,8 @@ def compile_robot(
     clamped: Iterable[Sequence[int]] = (),
     elevation: float = 0.0,
     drive: str = "waveform",
+    starts: Sequence[int] = (0,),
+    start_seed: int = 0,
 ) -> CompiledRobot:
     """Build the MuJoCo model of `robot`.
 
@@ -105,8 +127,12 @@ def compile_robot(
         settle) or "ctrl" (voxel pipeline: the strains (e₊, e₋) of the two muscle phases
         are the controls of the actuators ``muscle_plus`` and ``muscle_minus``, which apply
         no force themselves).
+      starts: the starts (indices >= 0) the model holds as keyframes when the scene's
+        ``start_shift`` is > 0 (`mjregen.physics.start_state`).
+      start_seed: the evaluation's seed of those starts (>= 0).
     Raises:
-      CompileError: empty robot, a clamped index that is not a voxel, negative elevation.
+      CompileError: empty robot, a clamped index that is not a voxel, negative elevation,
+        a start index or seed that is not a whole number >= 0, or no starts.
       PhysicsParameterError: the robot's materials have different Poisson ratios; the
         network time step without the plugin library.
       NativeBuildError: the voxel pipeline, and the plugin library cannot be built.
@@ -123,6 +149,7 @@ def compile_robot(
     pipeline = physics.pipeline.name
     if drive == "ctrl" and pipeline != "voxel":
         raise CompileError("drive 'ctrl' needs the voxel pipeline")
+    starts, start_seed = _checked_starts(starts, start_seed)
     layout = robot_layout(robot, physics, {tuple(int(i) for i in c) for c in clamped},
                           elevation)
     table, beams, muscles, max_k_per_m = bond_tables(layout, physics)
@@ -133,6 +160,11 @@ def compile_robot(
         mjcf.add_voxel_plugin(spec, layout, physics, table, beams, drive)
     else:
         mjcf.add_mujoco_bonds(spec, bodies, layout, physics, table)
+    if physics.scene.start_shift == 0.0:
+        starts = ()
+    for index in starts:
+        spec.add_key(name=start_state.key_name(index), qpos=start_state.start_qpos(
+            layout, physics.scene, robot.grid, seed=start_seed, index=index).tolist())
     block_step = timestep.stiffest_bond_step(physics, max_k_per_m)
     spec.option.timestep = round_like_mjcf(block_step)
     model = spec.compile()
@@ -154,7 +186,19 @@ def compile_robot(
         robot=robot, physics=physics, pipeline=pipeline, spec=spec, model=model,
         voxel_index=layout.grid_index, body_ids=body_ids, masses=layout.masses,
         muscles=muscles if pipeline == "mujoco" else None, n_bonds=len(layout.bonds),
-        bonds=table, beams=beams, network_rates=rates)
+        bonds=table, beams=beams, network_rates=rates, starts=starts, start_seed=start_seed)
+
+
+def _checked_starts(starts: Sequence[int], seed: int) -> tuple[tuple[int, ...], int]:
+    """(`starts` as a tuple of distinct ints, `seed` as an int), or CompileError."""
+    try:
+        indices = tuple(start_state.check_start("a start index", k) for k in starts)
+        seed = start_state.check_start("start_seed", seed)
+    except (TypeError, ValueError) as error:
+        raise CompileError(str(error)) from None
+    if not indices or len(set(indices)) != len(indices):
+        raise CompileError(f"starts must be distinct indices, at least one, got {starts!r}")
+    return indices, seed
 
 
 def network_rule_rates(model: mujoco.MjModel, layout: RobotLayout, physics: Physics,

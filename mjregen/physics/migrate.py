@@ -4,7 +4,8 @@ A description (`Physics.to_dict`) carries ``"format"``; one without it is format
 folders and asset manifests written before formats were recorded: one flat scene, fields
 added later missing). Format 2: the same flat scene, complete. Format 3: the shared scene
 and one pipeline with its parameters. Format 4: the voxel pipeline's beam law and damping,
-friction stop rule, collision constants and exclusion, and drag law. `migrate_physics` brings
+friction stop rule, collision constants and exclusion, and drag law. Format 5: the scene's
+start shift (every voxel's seeded offset at the start). `migrate_physics` brings
 any format to `PHYSICS_FORMAT` step by step, stating what each step assumes, so that an old
 run resumes, and an old walker replays, with exactly the physics it was evolved with.
 """
@@ -15,7 +16,7 @@ import copy
 
 from mjregen.errors import PhysicsParameterError
 
-PHYSICS_FORMAT = 4
+PHYSICS_FORMAT = 5
 
 
 # format 1: one flat scene; a field missing from a description took the value below (the
@@ -103,7 +104,13 @@ def _format_3_to_4(description: dict) -> dict:
     return {**description, "pipeline": pipeline}
 
 
-_STEPS = {1: _format_1_to_2, 2: _format_2_to_3, 3: _format_3_to_4}
+def _format_4_to_5(description: dict) -> dict:
+    """Format 4 -> 5: every walk started with each voxel exactly at its grid position
+    (start shift 0)."""
+    return {**description, "scene": {**description["scene"], "start_shift": 0.0}}
+
+
+_STEPS = {1: _format_1_to_2, 2: _format_2_to_3, 3: _format_3_to_4, 4: _format_4_to_5}
 
 
 def migrate_physics(description: dict) -> dict:

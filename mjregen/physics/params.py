@@ -29,6 +29,8 @@ from mjregen.physics.pipelines import PIPELINES, MujocoPipeline, Pipeline, Voxel
 
 WAVEFORMS = ("contract", "symmetric")
 PAPER_TIMES = {3: (0.05, 0.5), 2: (1.0, 0.25)}  # (settle, measured) s
+DEFAULT_START_SHIFT = 1e-4  # voxel lengths (Scene.start_shift; measured in docs/transfer.md)
+MAX_START_SHIFT = 0.1  # voxel lengths: beyond this a start is a deformed robot, not a rounding
 
 
 @dataclass(frozen=True)
@@ -126,6 +128,12 @@ class Scene:
       timestep_safety: the time step as a fraction of semi-implicit Euler's stability limit
         (the pipeline's `timestep_rule` says which limit); 0.75 keeps a margin for what the
         linear limit leaves out (contacts, large strains).
+      start_shift: voxel lengths, standard deviation of the seeded random offset of every
+        voxel's position at the start (`mjregen.physics.start_state`): a start with no exact
+        symmetry, so that no body balances in an equilibrium only exact arithmetic keeps (a
+        one-voxel plate on its edge). 1e-4 (0.1 µm at 1 mm voxels) makes such plates fall as
+        in the paper's engine and moves the paper's robots less than their time step does
+        (docs/transfer.md); 0 starts every voxel exactly at its grid position.
     """
 
     voxel_size: float = 1e-3
@@ -138,6 +146,7 @@ class Scene:
     drag_ratio: float = 0.001
     floor: bool = True
     timestep_safety: float = 0.75
+    start_shift: float = DEFAULT_START_SHIFT
 
     def __post_init__(self) -> None:
         check_range("voxel_size", self.voxel_size, low=0.0)
@@ -150,6 +159,8 @@ class Scene:
         check_range("bond_damping_ratio", self.bond_damping_ratio, low=0.0, low_open=False)
         check_range("drag_ratio", self.drag_ratio, low=0.0, low_open=False)
         check_range("timestep_safety", self.timestep_safety, low=0.0)
+        check_range("start_shift (voxel lengths)", self.start_shift, low=0.0,
+                    high=MAX_START_SHIFT, low_open=False, high_open=False)
         check_choice("waveform", self.waveform, WAVEFORMS)
         check_flag("floor", self.floor)
 

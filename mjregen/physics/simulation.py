@@ -1,7 +1,8 @@
 """Settle, actuate, measure: one locomotion evaluation of a robot, with a stability guard.
 
-`simulate(robot)` compiles the robot (`mjregen.physics.compile`), lets it settle without actuation
-for the scene's settle time, then drives the muscles for the measured time and returns a
+`simulate(robot)` compiles the robot (`mjregen.physics.compile`), starts it from one of its
+starts (every voxel moved by a seeded offset: `mjregen.physics.start_state`; a keyframe of the
+model), lets it settle without actuation for the scene's settle time, then drives the muscles for the measured time and returns a
 `Result`. In the voxel pipeline (the default) every force and the muscles are the voxel
 plugin's, inside MuJoCo's step, so `Simulation.run` advances ``CHECK_EVERY`` steps per call
 between stability checks and runs no Python per step; the steps are the native stepper's
@@ -15,6 +16,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
+from typing import Sequence
 
 import mujoco
 import numpy as np
@@ -22,7 +24,6 @@ from numpy.typing import ArrayLike
 
 from mjregen.errors import PhysicsParameterError
 from mjregen.grid import Robot
-from mjregen.physics.checks import check_range
 from mjregen.physics.compile import CompiledRobot, compile_robot
 from mjregen.physics.params import Physics
 from mjregen.physics.stepper import NativeStepper, unsupported_on
@@ -100,13 +101,17 @@ class Simulation:
         plugin drives them).
       actuation_start: s, time at which the muscle waveform starts (phase 0), for `muscles`.
       plugin_instance: the voxel plugin's instance id in `model`, or None.
+      start_key: the keyframe the state starts from (`CompiledRobot.start_key`), or None
+        (``qpos0``).
     """
 
     def __init__(self, model: mujoco.MjModel, *, physics: Physics,
                  muscles: MuscleTendons | None = None, actuation_start: float = 0.0,
-                 plugin_instance: int | None = None) -> None:
+                 plugin_instance: int | None = None, start_key: int | None = None) -> None:
         self.model = model
         self.data = mujoco.MjData(model)
+        if start_key is not None:
+            mujoco.mj_resetDataKeyframe(model, self.data, start_key)
         self.steps = 0
         scene = physics.scene
         self._scene = scene
@@ -236,25 +241,13 @@ def _stepper_for(model: mujoco.MjModel, data: mujoco.MjData, physics: Physics,
     return None
 
 
-def simulation_of(compiled: CompiledRobot) -> Simulation:
-    """A `Simulation` of a compiled robot (muscles from the end of the scene's settle)."""
+def simulation_of(compiled: CompiledRobot, start: int = 0) -> Simulation:
+    """A `Simulation` of a compiled robot from its start `start` (muscles from the end of the
+    scene's settle)."""
     settle, _ = compiled.physics.scene.timing(compiled.robot.dim)
     return Simulation(compiled.model, physics=compiled.physics, muscles=compiled.muscles,
-                      actuation_start=settle, plugin_instance=compiled.plugin_instance)
-
-
-def shift_positions(model: mujoco.MjModel, data: mujoco.MjData, sigma: float, seed: int
-                    ) -> None:
-    """Move every voxel of `data`'s state by normal random amounts of standard deviation
-    `sigma` m along each of its translational coordinates (free joints' x, y, z; 2D: the
-    slides), drawn from `seed` in joint order; rotations are left as they are."""
-    rng = np.random.default_rng(seed)
-    for j in range(model.njnt):
-        adr = model.jnt_qposadr[j]
-        if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_FREE:
-            data.qpos[adr:adr + 3] += rng.normal(0.0, sigma, 3)
-        elif model.jnt_type[j] == mujoco.mjtJoint.mjJNT_SLIDE:
-            data.qpos[adr] += rng.normal(0.0, sigma)
+                      actuation_start=settle, plugin_instance=compiled.plugin_instance,
+                      start_key=compiled.start_key(start))
 
 
 def simulate(
@@ -263,8 +256,8 @@ def simulate(
     physics: Physics | None = None,
     duration: float | None = None,
     record: bool = False,
-    start_shift: float = 0.0,
-    shift_seed: int = 0,
+    start_seed: int = 0,
+    start: int = 0,
 ) -> Result:
     """Evaluate a robot's locomotion: settle, actuate, measure.
 
@@ -274,47 +267,68 @@ def simulate(
       physics: materials, scene and pipeline; None = the paper's.
       duration: s of actuation that the distance counts; None = the scene's measured time.
       record: also return the centre-of-mass trajectory (every step).
-      start_shift: voxel lengths; > 0 starts from the rest state with every voxel moved by
-        normal random amounts of this standard deviation (`shift_positions`, seed
-        `shift_seed`), to see how much of the walk belongs to the exact start (a
-        symmetric body keeps its symmetry from the unperturbed start). 0: the unperturbed
-        start, which evolutions score.
-      shift_seed: seed of the shifts (an integer >= 0).
+      start_seed: the evaluation's seed of the start (an evolution's: its run's seed; >= 0).
+      start: which start of the robot (>= 0): every voxel moved by a random offset of the
+        scene's ``start_shift`` drawn from `start_seed`, `start` and the grid
+        (`mjregen.physics.start_state`); with start shift 0 both are ignored and every
+        voxel starts exactly at its grid position.
     Returns:
       A `Result`; an unstable run is marked ``stable=False`` (distance NaN) and never
       raises. The locomotion task's fitness: `mjregen.tasks.fitness.locomotion_fitness`.
     Raises:
       InvalidGridError: `robot` is not a valid grid.
-      PhysicsParameterError: `duration` or `start_shift` negative or not finite, a
-        `shift_seed` that is not an integer >= 0.
+      PhysicsParameterError: `duration` negative or not finite.
+      CompileError: `start_seed` or `start` not a whole number >= 0.
     """
+    return simulate_starts(robot, physics=physics, duration=duration, record=record,
+                           start_seed=start_seed, starts=(start,))[0]
+
+
+def simulate_starts(
+    robot: Robot | ArrayLike,
+    *,
+    physics: Physics | None = None,
+    duration: float | None = None,
+    record: bool = False,
+    start_seed: int = 0,
+    starts: Sequence[int] = (0,),
+) -> list[Result]:
+    """`simulate` the robot from each of `starts` (indices of its starts), compiling it once:
+    element ``i`` equals ``simulate(robot, ..., start=starts[i])`` exactly. Each `Result`'s
+    wall and CPU time include an equal share of the compile. Arguments and errors as for
+    `simulate`."""
     wall0, cpu0 = time.perf_counter(), time.process_time()
     robot = robot if isinstance(robot, Robot) else Robot(robot)
     physics = Physics() if physics is None else physics
     if duration is not None and not (math.isfinite(duration) and duration >= 0):
         raise PhysicsParameterError(f"duration must be a finite time >= 0 s, got {duration!r}")
-    check_range("start_shift (voxel lengths)", start_shift, low=0.0, low_open=False)
-    if isinstance(shift_seed, bool) or not isinstance(shift_seed, (int, np.integer)) \
-            or shift_seed < 0:
-        raise PhysicsParameterError(f"shift_seed must be an integer >= 0, got {shift_seed!r}")
-    dim = robot.dim
     if robot.is_empty:
-        return Result(distance=0.0, dim=dim, n_voxels=0, stable=True,
-                      reason="", steps=0, sim_time=0.0, timestep=0.0,
-                      wall_time=time.perf_counter() - wall0,
-                      cpu_time=time.process_time() - cpu0)
-    compiled = compile_robot(robot, physics=physics)
+        empty = Result(distance=0.0, dim=robot.dim, n_voxels=0, stable=True, reason="",
+                       steps=0, sim_time=0.0, timestep=0.0,
+                       wall_time=time.perf_counter() - wall0, cpu_time=time.process_time() - cpu0)
+        return [empty for _ in starts]
+    compiled = compile_robot(robot, physics=physics, starts=starts, start_seed=start_seed)
+    share = ((time.perf_counter() - wall0) / len(starts),
+             (time.process_time() - cpu0) / len(starts))
+    return [_walk(compiled, start, duration=duration, record=record, compile_time=share)
+            for start in starts]
+
+
+def _walk(compiled: CompiledRobot, start: int, *, duration: float | None, record: bool,
+          compile_time: tuple[float, float]) -> Result:
+    """Settle and walk `compiled` from its start `start`; `compile_time`: (wall, CPU) s to
+    add to the result's."""
+    wall0, cpu0 = time.perf_counter(), time.process_time()
+    robot, physics = compiled.robot, compiled.physics
+    dim = robot.dim
     settle, measured = physics.scene.timing(dim)
     measured = measured if duration is None else duration
     dt = compiled.timestep
     n_settle, n_measure = round(settle / dt), round(measured / dt)
-    sim = simulation_of(compiled)
-    if start_shift:
-        shift_positions(compiled.model, sim.data, start_shift * physics.scene.voxel_size,
-                        int(shift_seed))
+    sim = simulation_of(compiled, start)
     com = np.empty((n_settle + n_measure + 1, 3)) if record else None
     reason = sim.run(n_settle, com=None if com is None else com[:n_settle])
-    start = sim.com()
+    begin = sim.com()
     if not reason:
         reason = sim.run(n_measure, com=None if com is None else com[n_settle:-1])
     end = sim.com()
@@ -323,12 +337,13 @@ def simulate(
         com = com[: sim.steps + 1]
     planar = [0, 1] if dim == 3 else [0]
     length = physics.scene.voxel_size
-    distance = float(np.linalg.norm(end[planar] - start[planar])) / length
-    dx, dy = (end[0] - start[0]) / length, (end[1] - start[1]) / length if dim == 3 else 0.0
+    distance = float(np.linalg.norm(end[planar] - begin[planar])) / length
+    dx, dy = (end[0] - begin[0]) / length, (end[1] - begin[1]) / length if dim == 3 else 0.0
     stable = not reason
     return Result(
         distance=distance if stable else math.nan, dim=dim, n_voxels=robot.n_voxels,
         displacement=(float(dx), float(dy)) if stable else (math.nan, math.nan),
         stable=stable, reason=reason, steps=sim.steps, sim_time=sim.steps * dt, timestep=dt,
-        wall_time=time.perf_counter() - wall0, cpu_time=time.process_time() - cpu0,
+        wall_time=time.perf_counter() - wall0 + compile_time[0],
+        cpu_time=time.process_time() - cpu0 + compile_time[1],
         times=None if com is None else np.arange(sim.steps + 1) * dt, com=com)

@@ -231,7 +231,7 @@ def test_voxels_within_the_collision_hops_never_collide():
     robot = Robot.from_body(body)
     push = 1e7 * L * (1.5 - math.sqrt(2.0)) * L / math.sqrt(2.0)  # N along x and y each
     for hops, pushed in ((3, {0, 1}), (5, {0}), (0, set())):
-        physics = Physics().replace(floor=False, gravity=0.0, drag_ratio=0.0,
+        physics = Physics().replace(floor=False, gravity=0.0, drag_ratio=0.0, start_shift=0.0,
                                     settle_time=0.0, collision_hops=hops,
                                     collision_radius=0.75 if hops else 0.7)
         compiled = compile_robot(robot, physics=physics)

@@ -33,6 +33,8 @@ PLAIN_MUJOCO = textwrap.dedent("""
     mujoco.mj_loadPluginLibrary(library)
     model = mujoco.MjModel.from_xml_path(xml)
     data = mujoco.MjData(model)
+    if model.nkey:  # the start simulate walks from (every voxel moved by its seeded offset)
+        mujoco.mj_resetDataKeyframe(model, data, model.key("start_0").id)
     dt = model.opt.timestep
     def com():
         mujoco.mj_kinematics(model, data)

@@ -28,7 +28,7 @@ def dropped_voxel(physics: Physics, seconds: float, dim: int = 3) -> tuple[np.nd
     """(t, COM ``(n, 3)``, dt) of a soft voxel dropped with its bottom 5 mm above the floor,
     recorded at the start of every step for `seconds`."""
     compiled = compile_robot(Robot.box((1,) * dim),
-                             physics=physics, elevation=5e-3)
+                             physics=physics.replace(start_shift=0.0), elevation=5e-3)
     sim = simulation_of(compiled)
     dt = compiled.timestep
     n = round(seconds / dt)
@@ -258,9 +258,9 @@ def muscle_pair(codes: tuple[int, int], *, waveform: str = "contract",
                 bond_element: str = "beam") -> tuple[np.ndarray, np.ndarray]:
     """(t, centre distance) of a free two-voxel bar, no floor or gravity, actuated from t=0;
     bond damping ratio 1 (overdamped: a clean first-order lag)."""
-    physics = Physics().replace(floor=False, gravity=0.0, settle_time=0.0,
-                                      waveform=waveform, bond_damping_ratio=1.0,
-                                      bond_element=bond_element)
+    physics = Physics().replace(floor=False, gravity=0.0, settle_time=0.0, start_shift=0.0,
+                                waveform=waveform, bond_damping_ratio=1.0,
+                                bond_element=bond_element)
     compiled = compile_robot(Robot.from_body(np.array(codes, dtype=np.int8).reshape(2, 1, 1)),
                              physics=physics)
     sim = simulation_of(compiled)
@@ -344,7 +344,7 @@ def test_resting_muscles_move_as_soft_voxels():
     grid[grid >= Material.MUSCLE_PLUS] = Material.SOFT
     states = []
     for robot in (multiped, Robot(grid)):
-        compiled = compile_robot(robot)
+        compiled = compile_robot(robot, physics=Physics().replace(start_shift=0.0))
         sim = simulation_of(compiled)
         settle, _ = Physics().scene.timing(3)
         assert sim.run(round(settle / compiled.timestep)) == ""

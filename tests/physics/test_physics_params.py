@@ -182,7 +182,7 @@ def test_replace_with_an_unknown_field_names_both_field_sets():
     message = str(voxel.value)
     assert message.startswith("colour, contact_shape: not a field of the scene or of the voxel")
     scene = "bond_damping_ratio, drag_ratio, floor, frequency, gravity, measured_time, " \
-            "settle_time, timestep_safety, voxel_size, waveform"
+            "settle_time, start_shift, timestep_safety, voxel_size, waveform"
     assert f"scene: {scene};" in message
     assert "voxel: beam_damping, beam_law, bond_element, bond_model, collision_damping, " \
            "collision_hops, collision_radius, collision_stiffness, drag_law, floor_damping, " \
@@ -242,7 +242,7 @@ def test_physics_pickles_and_round_trips_through_json():
                                       contact_shape="box", contact_stiffness=None)):
         assert pickle.loads(pickle.dumps(physics)) == physics  # sent to worker processes
         values = physics.to_dict()
-        assert values["format"] == PHYSICS_FORMAT == 4
+        assert values["format"] == PHYSICS_FORMAT == 5
         assert set(values) == {"format", "materials", "scene", "pipeline"}
         assert values["pipeline"]["name"] == physics.pipeline.name
         assert Physics.from_dict(json.loads(json.dumps(values))) == physics
@@ -294,8 +294,9 @@ def rules_before_format_4(floor_stiffness: float = 2.0, floor_damping: float = 0
                 collision_hops=0, drag_law="stokes")
 
 
-# Physics() before format 4
-FORMAT_3_DEFAULT = Physics().replace(bond_damping_ratio=0.4, **rules_before_format_4())
+# Physics() before format 4 (and before format 5's start shift: every walk started exact)
+FORMAT_3_DEFAULT = Physics().replace(bond_damping_ratio=0.4, start_shift=0.0,
+                                     **rules_before_format_4())
 
 
 def format_1(**scene) -> dict:
@@ -314,7 +315,8 @@ def test_format_1_engine_floor_migrates_to_the_voxel_pipeline():
         contact_damping=0.7, self_collision=False, bond_element="tendons",
         bond_model="timoshenko", stepper="native", timestep_rule="stiffest_bond",
         contact_timeconst=1e-3, bond_backend="native"))
-    assert physics.scene == Scene(settle_time=0.2, gravity=10.0, bond_damping_ratio=0.5)
+    assert physics.scene == Scene(settle_time=0.2, gravity=10.0, bond_damping_ratio=0.5,
+                                  start_shift=0.0)
     assert physics.pipeline == VoxelPipeline(
         bond_element="tendons", bond_model="timoshenko", floor_stiffness=3.0,
         floor_damping=0.7, stepper="native", timestep_rule="stiffest_bond",
@@ -335,7 +337,7 @@ def test_format_1_mujoco_contacts_migrate_to_the_mujoco_pipeline():
     (shear-rigid bonds, damping 0.8, self-collision 0.625) are written out."""
     physics = Physics.from_dict(format_1(contact_shape="point", bond_element="tendons",
                                          integrator="rk4"))
-    assert physics.scene == Scene(bond_damping_ratio=0.4)
+    assert physics.scene == Scene(bond_damping_ratio=0.4, start_shift=0.0)
     assert physics.pipeline == MujocoPipeline(
         contact_shape="point", bond_model="euler_bernoulli", contact_stiffness=2.0,
         contact_damping=0.8, collision_radius=0.625, integrator="rk4",
@@ -345,7 +347,7 @@ def test_format_1_mujoco_contacts_migrate_to_the_mujoco_pipeline():
         contact_dampratio=0.5, contact_width=2e-5, self_collision=False,
         bond_element="tendons", bond_model="timoshenko", timestep_rule="stiffest_bond",
         drag_ratio=0.0, bond_damping_ratio=1.0))
-    assert physics.scene == Scene(drag_ratio=0.0, bond_damping_ratio=1.0)
+    assert physics.scene == Scene(drag_ratio=0.0, bond_damping_ratio=1.0, start_shift=0.0)
     assert physics.pipeline == MujocoPipeline(
         contact_shape="box", contact_stiffness=None, contact_damping=0.8,
         contact_timeconst=1e-3, contact_dampratio=0.5, contact_width=2e-5,
@@ -414,6 +416,7 @@ def test_format_3_voxel_pipeline_migrates_to_its_rules_of_the_time():
     self-collision; a MuJoCo pipeline is unchanged."""
     described = FORMAT_3_DEFAULT.to_dict()
     described["format"] = 3
+    del described["scene"]["start_shift"]
     for key in ("beam_law", "beam_damping", "friction_stop", "collision_stiffness",
                 "collision_damping", "collision_hops", "drag_law"):
         del described["pipeline"][key]

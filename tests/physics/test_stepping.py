@@ -68,7 +68,7 @@ def test_clamped_voxels_stay_and_the_rest_moves_like_mj_step():
 
 def test_free_fall_is_semi_implicit_euler():
     """No floor: after n steps z = z0 − g dt² n(n+1)/2 and v = −g n dt (exactly the Euler map)."""
-    physics = NATIVE.replace(floor=False, drag_ratio=0.0)
+    physics = NATIVE.replace(floor=False, drag_ratio=0.0, start_shift=0.0)
     sim = simulation_of(compile_robot(Robot.box((2, 2, 2), 1),
                                       physics=physics))
     z0 = sim.data.qpos[2]
