@@ -86,7 +86,8 @@ def material_counts(robot: Robot) -> dict[str, int]:
 
 
 def measure(npz: Path, run_config: dict, expected_robot: Path | None = None) -> dict:
-    """Grow the NCA in `npz` and walk its robot with the run's physics and measured time.
+    """Grow the NCA in `npz` and walk its robot as the run scored it: its physics, measured
+    time, starts and their seed.
 
     Returns:
       nca config, robot (`Robot`), fitness, distance (voxel lengths, None when unstable),
@@ -97,8 +98,7 @@ def measure(npz: Path, run_config: dict, expected_robot: Path | None = None) -> 
     """
     from mjregen.growth.checkpoint import load_nca
     from mjregen.physics import Physics
-    from mjregen.physics.simulation import simulate
-    from mjregen.tasks.fitness import locomotion_fitness
+    from mjregen.tasks.evaluation import RobotJob, evaluate_robot
 
     task = run_config.get("task", {})
     if not isinstance(task.get("physics"), dict):
@@ -109,15 +109,17 @@ def measure(npz: Path, run_config: dict, expected_robot: Path | None = None) -> 
     robot = nca.grow().robot()
     if expected_robot is not None and Robot.load(expected_robot) != robot:
         raise MjregenError(f"{npz} grows another robot than {expected_robot} with this code")
-    result = simulate(robot, physics=physics, duration=duration)
+    starts, start_seed = task.get("starts", 1), task.get("start_seed", 0)
+    result = evaluate_robot(RobotJob(np.asarray(robot.grid), physics, duration, starts,
+                                     start_seed))
     settle, measured = physics.scene.timing(robot.dim)
     return {
-        "nca": nca.config.to_dict(), "robot": robot, "fitness": float(locomotion_fitness(result)),
+        "nca": nca.config.to_dict(), "robot": robot, "fitness": float(result.fitness),
         "distance": float(result.distance) if result.stable else None, "stable": result.stable,
         "reason": result.reason, "voxels": robot.n_voxels, "materials": material_counts(robot),
         "evaluation": {"physics": task["physics"], "settle_s": settle,
                        "duration_s": measured if duration is None else duration,
-                       "duration_arg": duration,
+                       "duration_arg": duration, "starts": starts, "start_seed": start_seed,
                        "physics_is_current_default": physics == Physics()},
     }
 

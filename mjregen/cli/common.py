@@ -14,6 +14,14 @@ if TYPE_CHECKING:
     from mjregen.search.ga import GAConfig
 
 
+def starts_count(text: str) -> int:
+    """argparse type of --starts: a whole number >= 1."""
+    value = _whole(text, "starts")
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"starts is a whole number >= 1, got {text}")
+    return value
+
+
 def seed(text: str) -> int:
     """argparse type of --seed: a whole number >= 0 (numpy's seeds)."""
     value = _whole(text, "seed")
@@ -114,17 +122,22 @@ def add_physics_choice(parser: argparse.ArgumentParser) -> None:
 
 
 def add_physics_arguments(parser: argparse.ArgumentParser) -> None:
-    """--physics (the default model or the paper-engine preset), --settle and --duration."""
+    """--physics (the default model or the paper-engine preset), --settle, --duration and
+    --start-shift."""
     add_physics_choice(parser)
     parser.add_argument("--settle", type=float,
                         help="s without actuation before measuring (default: the paper's, 3D 0.05, 2D 1.0)")
     parser.add_argument("--duration", type=float,
                         help="s of walking measured (default: the paper's, 3D 0.5, 2D 0.25)")
+    parser.add_argument("--start-shift", type=float, metavar="S",
+                        help="voxel lengths: every voxel starts moved by a seeded random "
+                             "offset of this standard deviation, so that no body balances on "
+                             "an exact symmetry (default 1e-4; 0 starts it exactly on the grid)")
 
 
 def physics_from_args(args: argparse.Namespace):
-    """The `Physics` that --physics, --bonds, --timestep-rule and --settle describe, with
-    --duration checked too (before any work starts)."""
+    """The `Physics` that --physics, --bonds, --timestep-rule, --settle and --start-shift
+    describe, with --duration checked too (before any work starts)."""
     from mjregen.physics import Physics, box_physics, paper_physics, sphere_physics
 
     presets = {"paper": paper_physics, "sphere": sphere_physics, "box": box_physics}
@@ -139,9 +152,11 @@ def physics_from_args(args: argparse.Namespace):
     duration = getattr(args, "duration", None)
     if duration is not None and not (math.isfinite(duration) and duration >= 0.0):
         raise MjregenError(f"--duration must be a finite time >= 0 s, got {duration!r}")
-    if args.settle is None:
-        return physics
-    try:
-        return physics.replace(settle_time=args.settle)
-    except ValueError as error:
-        raise MjregenError(f"--settle: {error}") from None
+    for flag, field, value in (("--settle", "settle_time", args.settle),
+                               ("--start-shift", "start_shift", getattr(args, "start_shift", None))):
+        if value is not None:
+            try:
+                physics = physics.replace(**{field: value})
+            except ValueError as error:
+                raise MjregenError(f"{flag}: {error}") from None
+    return physics

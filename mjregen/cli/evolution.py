@@ -15,6 +15,7 @@ from mjregen.cli.common import (
     ga_config,
     physics_from_args,
     seed,
+    starts_count,
     workers,
 )
 from mjregen.cli.quality_diversity import (
@@ -24,6 +25,7 @@ from mjregen.cli.quality_diversity import (
     run_map_elites_command,
 )
 from mjregen.errors import MjregenError
+from mjregen.tasks.starts import DEFAULT_STARTS
 
 
 def add_evolve(subparsers: argparse._SubParsersAction) -> None:
@@ -58,7 +60,12 @@ def add_evolve(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--net", choices=("ff", "lstm"), help="NCA network (default ff)")
     add_ga_arguments(parser, preset_help="GA preset (default: 2d or 3d by --dim)")
     add_physics_arguments(parser)
-    parser.add_argument("--seed", type=seed, help="seed of the GA (default 0)")
+    parser.add_argument("--starts", type=starts_count,
+                        help="starts each robot walks from (every voxel moved by a seeded "
+                             f"offset of --start-shift); its fitness is their mean (default "
+                             f"{DEFAULT_STARTS})")
+    parser.add_argument("--seed", type=seed, help="seed of the GA and of the robots' starts "
+                                                  "(default 0)")
     parser.add_argument("--backend", choices=BACKENDS, default="process",
                         help="where simulations run (default: local processes)")
     parser.add_argument("--workers", type=workers, help="parallel workers (default: all cores)")
@@ -87,6 +94,7 @@ def _evolve(args: argparse.Namespace) -> int:
     if args.resume:
         task, ga, seed = _stored_run(args)
         nca, physics, duration = task.nca, task.physics, task.duration
+        starts, start_seed = task.starts, task.start_seed
         regrowth = ({"cut": task.cut, "cell_cost": task.cell_cost}
                     if isinstance(task, GrowRegrowTask) else None)
     else:
@@ -94,9 +102,12 @@ def _evolve(args: argparse.Namespace) -> int:
         ga, seed = ga_config(args, f"{dim}d"), (0 if args.seed is None else args.seed)
         nca = NCAConfig(dim=dim, kind=args.net or "ff")
         physics, duration = physics_from_args(args), args.duration
+        starts = DEFAULT_STARTS if args.starts is None else args.starts
+        start_seed = seed
         regrowth = _regrowth_objective(args, nca)
     common = dict(out=args.out, nca=nca, ga=ga, seed=seed, physics=physics, duration=duration,
-                  resume=args.resume, force=args.force, progress=not args.quiet)
+                  starts=starts, start_seed=start_seed, resume=args.resume, force=args.force,
+                  progress=not args.quiet)
     with make_backend(args.backend, workers=args.workers, address=args.address) as backend:
         if regrowth is None:
             summary = evolve_locomotion(backend=backend, **common)
@@ -148,6 +159,8 @@ def _stored_run(args: argparse.Namespace) -> tuple:
              "truncation": (args.truncation, ga.truncation), "elites": (args.elites, ga.elites),
              "sigma": (args.sigma, ga.sigma), "seed": (args.seed, seed),
              "duration": (args.duration, task.duration),
+             "starts": (args.starts, task.starts),
+             "start-shift": (args.start_shift, task.physics.scene.start_shift),
              "settle": (args.settle, task.physics.scene.settle_time),
              "bonds": (args.bonds, getattr(task.physics.pipeline, "bond_element", None)),
              "timestep-rule": (args.timestep_rule, task.physics.pipeline.timestep_rule)}

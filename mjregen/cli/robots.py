@@ -17,6 +17,7 @@ from mjregen.cli.common import (
     physics_from_args,
     positive,
     seed,
+    starts_count,
     workers,
 )
 from mjregen.errors import MjregenError, OutputExistsError
@@ -107,32 +108,38 @@ def _show(args: argparse.Namespace) -> int:
 
 
 def add_walk(subparsers: argparse._SubParsersAction) -> None:
-    from mjregen.tasks.starts import DEFAULT_FIRST_SEED, DEFAULT_SHIFT, DEFAULT_STARTS
+    from mjregen.tasks.starts import CHECK_STARTS
 
     parser = subparsers.add_parser(
         "walk",
         help="simulate a robot walking and print distance and fitness",
         description="Simulate a robot file (.npy): settle, actuate, measure (the paper's times "
         "unless --settle/--duration), and print the distance in voxel lengths, the paper's "
-        "fitness and the stability verdict.",
+        "fitness and the stability verdict. The walk starts with every voxel moved by a "
+        "seeded random offset (--start-shift, seed --start-seed and the robot), as in an "
+        "evolution; --starts K walks it from K such starts and scores it as an evolution "
+        "with --starts K does (the mean).",
     )
     parser.add_argument("robot", type=Path, help="robot file (.npy)")
     add_physics_arguments(parser)
-    parser.add_argument("--trajectory", type=Path, help="also write the COM trajectory (CSV: t, x, y, z in m)")
+    parser.add_argument("--starts", type=starts_count, metavar="K",
+                        help="walk from K starts (0 .. K-1) and report their mean, min and "
+                             "each distance (default 1)")
+    parser.add_argument("--start-seed", type=seed,
+                        help="seed of the starts (default 0; an evolution uses its seed)")
+    parser.add_argument("--trajectory", type=Path, help="also write the COM trajectory (CSV: t, x, y, z in m) of the first start")
     parser.add_argument("--force", action="store_true", help="overwrite --trajectory if it exists")
     starts = parser.add_argument_group(
-        "shifted starts", "Also walk the robot from N starts with every voxel moved by normal "
-        "random amounts (--shift voxel lengths, seeds --shift-seed, +1, ...), and report the "
-        "distances they keep. An evolution scores the unperturbed start only; a robot whose "
-        "shifted starts keep less than 90 % of its distance on average walks partly by that "
-        "start (a body that is its own mirror image keeps its symmetry from it).")
+        "shifted starts", "Also walk the robot from the exact start (every voxel on its grid "
+        "position) and compare it with N shifted starts (--shift voxel lengths, seed "
+        "--start-seed), reporting the distance they keep: a robot whose shifted starts keep "
+        "less than 90 % of the exact start's distance on average walks partly by that start "
+        "(a body that is its own mirror image keeps its symmetry from it).")
     starts.add_argument("--shifted-starts", type=positive, metavar="N",
-                        help=f"number of shifted starts (e.g. {DEFAULT_STARTS})")
+                        help=f"number of shifted starts (e.g. {CHECK_STARTS})")
     starts.add_argument("--shift", type=float,
-                        help=f"voxel lengths, standard deviation of each voxel's shift "
-                             f"(default {DEFAULT_SHIFT:g}: 1e-12 m at 1 mm voxels)")
-    starts.add_argument("--shift-seed", type=seed,
-                        help=f"seed of the first shifted start (default {DEFAULT_FIRST_SEED})")
+                        help="voxel lengths, standard deviation of each voxel's shift "
+                             "(default: --start-shift's)")
     starts.add_argument("--workers", type=workers,
                         help="threads walking the starts (default: all cores)")
     parser.add_argument("--json", action="store_true", help="print JSON instead of text")
@@ -141,7 +148,7 @@ def add_walk(subparsers: argparse._SubParsersAction) -> None:
 
 def _walk(args: argparse.Namespace) -> int:
     from mjregen.fileio import atomic_open
-    from mjregen.physics.simulation import simulate
+    from mjregen.physics.simulation import simulate_starts
     from mjregen.tasks.fitness import locomotion_fitness
 
     robot = Robot.load(args.robot)
@@ -149,83 +156,114 @@ def _walk(args: argparse.Namespace) -> int:
         raise MjregenError(f"{args.robot} holds an empty robot: nothing to walk")
     if args.trajectory is not None and args.trajectory.exists() and not args.force:
         raise OutputExistsError(args.trajectory)
-    if args.shifted_starts is None and (args.shift, args.shift_seed, args.workers) != (None,) * 3:
-        raise MjregenError("--shift, --shift-seed and --workers are for --shifted-starts N")
+    if args.shifted_starts is None and (args.shift, args.workers) != (None,) * 2:
+        raise MjregenError("--shift and --workers are for --shifted-starts N")
+    if args.shifted_starts is not None and args.starts is not None:
+        raise MjregenError("choose --starts K (the score from K starts) or --shifted-starts N "
+                           "(the exact start against N shifted ones), not both")
     if args.shift is not None and not (math.isfinite(args.shift) and args.shift > 0.0):
         raise MjregenError(f"--shift must be a finite number of voxel lengths > 0, "
                            f"got {args.shift!r}")
     physics = physics_from_args(args)
     record = args.trajectory is not None
-    starts = None
+    start_seed = args.start_seed or 0
+    checked = None
     if args.shifted_starts is None:
-        result = simulate(robot, physics=physics, duration=args.duration, record=record)
+        results = simulate_starts(robot, physics=physics, duration=args.duration, record=record,
+                                  start_seed=start_seed, starts=range(args.starts or 1))
+        result = results[0]
     else:
-        starts = _shifted_starts(robot, physics, args, record)
-        result = starts.default
-    fitness = locomotion_fitness(result)
+        checked = _shifted_starts(robot, physics, args, record)
+        result, results = checked.default, [checked.default]
     if args.trajectory is not None and result.com is not None:
         with atomic_open(args.trajectory, "w") as handle:
             handle.write("t,x,y,z\n")
             np.savetxt(handle, np.column_stack([result.times, result.com]), delimiter=",", fmt="%.9g")
-    report = {"robot": str(args.robot), "voxels": result.n_voxels, "distance": result.distance,
-              "displacement": list(result.displacement), "heading": result.heading,
-              "fitness": fitness, "stable": result.stable, "reason": result.reason,
-              "steps": result.steps, "sim_time": result.sim_time, "timestep": result.timestep,
-              "wall_time": result.wall_time, "cpu_time": result.cpu_time}
-    if starts is not None:
+    report = _walk_report(args, result, results)
+    if checked is not None:
         report["shifted_starts"] = {
-            "starts": len(starts.seeds), "shift": starts.shift, "seeds": list(starts.seeds),
-            "distances": starts.distances.tolist(), "reasons": list(starts.reasons),
-            "mean": starts.mean, "min": starts.low, "max": starts.high, "kept": starts.kept,
-            "depends_on_start": starts.depends_on_start, "mirror_axes": list(starts.mirror_axes)}
+            "starts": len(checked.indices), "shift": checked.shift, "seed": checked.seed,
+            "distances": checked.distances.tolist(), "reasons": list(checked.reasons),
+            "mean": checked.mean, "min": checked.low, "max": checked.high, "kept": checked.kept,
+            "depends_on_start": checked.depends_on_start,
+            "mirror_axes": list(checked.mirror_axes)}
     if args.json:
         print(json.dumps(_finite_or_none(report)))
         return 0
     verdict = "stable" if result.stable else f"UNSTABLE ({result.reason})"
     dx, dy = result.displacement
-    print(f"{args.robot}: {result.n_voxels} voxels, distance {result.distance:.4f} voxel lengths "
-          f"(dx {dx:.4f}, dy {dy:.4f}, heading {result.heading:.1f} deg), fitness "
-          f"{fitness:.4f}, {verdict}")
+    start = "the exact start" if checked is not None else f"start 0 (seed {start_seed})"
+    print(f"{args.robot}: {result.n_voxels} voxels, from {start}: distance {result.distance:.4f} "
+          f"voxel lengths (dx {dx:.4f}, dy {dy:.4f}, heading {result.heading:.1f} deg), "
+          f"fitness {locomotion_fitness(result):.4f}, {verdict}")
     print(f"{result.steps} steps of {result.timestep:.3g} s ({result.sim_time:.3f} s simulated) "
           f"in {result.wall_time:.2f} s wall, {result.cpu_time:.2f} s CPU")
-    if starts is not None:
-        print(_starts_text(starts))
+    if len(results) > 1:
+        many = report["starts"]
+        print(f"{len(results)} starts (seed {start_seed}): distance mean {many['mean']:.4f}, "
+              f"min {many['min']:.4f}, max {many['max']:.4f} voxel lengths; fitness (their "
+              f"mean, as an evolution with --starts {len(results)} scores it) "
+              f"{many['fitness']:.4f}; {many['unstable']} unstable")
+    if checked is not None:
+        print(_starts_text(checked))
     return 0
 
 
-def _shifted_starts(robot: Robot, physics, args: argparse.Namespace, record: bool):
-    """The walks from the unperturbed start and from --shifted-starts shifted ones."""
-    from mjregen.search.backends import ThreadBackend
-    from mjregen.tasks.starts import DEFAULT_FIRST_SEED, DEFAULT_SHIFT, shifted_starts
+def _walk_report(args: argparse.Namespace, result, results: list) -> dict:
+    """The walk's JSON report: the first start's walk and, for several, all of them."""
+    from mjregen.tasks.fitness import locomotion_fitness
 
-    shift = DEFAULT_SHIFT if args.shift is None else args.shift
-    first_seed = DEFAULT_FIRST_SEED if args.shift_seed is None else args.shift_seed
+    report = {"robot": str(args.robot), "voxels": result.n_voxels, "distance": result.distance,
+              "displacement": list(result.displacement), "heading": result.heading,
+              "fitness": locomotion_fitness(result), "stable": result.stable,
+              "reason": result.reason, "steps": result.steps, "sim_time": result.sim_time,
+              "timestep": result.timestep, "wall_time": result.wall_time,
+              "cpu_time": result.cpu_time}
+    if len(results) > 1:
+        distances = np.array([r.distance for r in results])
+        unstable = [r for r in results if not r.stable]
+        stable = distances[np.isfinite(distances)]
+        report["starts"] = {
+            "seed": args.start_seed or 0, "distances": distances.tolist(),
+            "mean": float(distances.mean()), "min": float(stable.min()) if stable.size else math.nan,
+            "max": float(stable.max()) if stable.size else math.nan, "unstable": len(unstable),
+            "fitness": (locomotion_fitness(unstable[0]) if unstable
+                        else float(np.mean([locomotion_fitness(r) for r in results])))}
+    return report
+
+
+def _shifted_starts(robot: Robot, physics, args: argparse.Namespace, record: bool):
+    """The walks from the exact start and from --shifted-starts shifted ones."""
+    from mjregen.search.backends import ThreadBackend
+    from mjregen.tasks.starts import shifted_starts
+
     with ThreadBackend(args.workers or os.cpu_count() or 1) as backend:
         return shifted_starts(robot, physics=physics, duration=args.duration,
-                              starts=args.shifted_starts, shift=shift, first_seed=first_seed,
-                              backend=backend, record_default=record)
+                              starts=args.shifted_starts, shift=args.shift,
+                              start_seed=args.start_seed or 0, backend=backend,
+                              record_default=record)
 
 
 def _starts_text(starts) -> str:
     """The shifted starts' distances and what they say of the robot, for people."""
     from mjregen.tasks.starts import KEPT
 
-    n, unstable = len(starts.seeds), int(np.count_nonzero(~starts.stable))
+    n, unstable = len(starts.indices), int(np.count_nonzero(~starts.stable))
     mirror = (f"its body is its own mirror image across {' and '.join(starts.mirror_axes)}"
               if starts.mirror_axes else "its body has no mirror plane")
     share = ("" if math.isnan(starts.kept)
-             else f", {starts.kept:.0%} of the unperturbed start's")
+             else f", {starts.kept:.0%} of the exact start's")
     distances = (f"distance mean {starts.mean:.4f}, min {starts.low:.4f}, max "
                  f"{starts.high:.4f} voxel lengths{share}" if unstable < n
                  else "no shifted walk stayed stable")
     lines = [f"{n} shifted starts (each voxel moved by {starts.shift:g} voxel lengths, standard "
-             f"deviation; seeds {starts.seeds[0]}-{starts.seeds[-1]}): {distances}; {mirror}"]
+             f"deviation; seed {starts.seed}): {distances}; {mirror}"]
     if unstable:
         lines.append(f"{unstable} of the {n} shifted walks became unstable: "
                      + "; ".join(sorted({r for r in starts.reasons if r})))
     if starts.kept < KEPT:
         lines.append(f"the shifted starts keep less than {KEPT:.0%} of the distance: this robot "
-                     "walks partly by its exact start, which its fitness scores")
+                     "walks partly by its exact start")
     return "\n".join(lines)
 
 

@@ -17,30 +17,36 @@ from mjregen.search.map_elites import MapElitesConfig
 from mjregen.search.qd_runs import QDRunSummary, run_map_elites
 from mjregen.search.runs import RunSummary, run_evolution
 from mjregen.tasks.grow_regrow import PAPER_CUT, GrowRegrowTask
-from mjregen.tasks.locomotion import LocomotionTask
+from mjregen.tasks.locomotion import DEFAULT_STARTS, LocomotionTask
 
 
 def evolve_locomotion(*, out: str | Path, nca: NCAConfig, ga: GAConfig, seed: int,
                       backend: Backend, physics: Physics | None = None,
-                      duration: float | None = None, resume: bool = False,
-                      force: bool = False, progress: bool = True) -> RunSummary:
+                      duration: float | None = None, starts: int = DEFAULT_STARTS,
+                      start_seed: int | None = None,
+                      resume: bool = False, force: bool = False, progress: bool = True
+                      ) -> RunSummary:
     """Evolve NCAs whose robots walk far, into the run folder `out`.
 
     Args:
       out: the run folder (config.json, metrics.csv, best/, checkpoint.npz, fitness.png).
       nca: the network that grows the robots.
       ga: population, generations, truncation, elites, sigma.
-      seed: the GA's seed.
+      seed: the GA's seed, and the seed of every robot's starts.
       backend: where the robots are simulated (results do not depend on it).
       physics: None = the default physics.
       duration: s of walking measured; None = the scene's.
+      starts: starts each robot walks from; its fitness is their mean (`LocomotionTask`).
+      start_seed: seed of the starts; None = `seed` (a run older than starts resumes with
+        its own, 0).
       resume: continue the run in `out` (these settings must be its own).
       force: replace a run already in `out`.
       progress: a progress bar.
     Raises:
       mjregen.search.runs.RunFolderError: `out` holds another run or nothing to resume.
     """
-    task = LocomotionTask(nca=nca, physics=physics or Physics(), duration=duration)
+    task = LocomotionTask(nca=nca, physics=physics or Physics(), duration=duration,
+                          starts=starts, start_seed=seed if start_seed is None else start_seed)
     return run_evolution(task, ga, seed=seed, out=out, backend=backend,
                          task_config=task.to_config(), resume=resume, force=force,
                          progress=progress)
@@ -48,15 +54,17 @@ def evolve_locomotion(*, out: str | Path, nca: NCAConfig, ga: GAConfig, seed: in
 
 def evolve_grow_regrow(*, out: str | Path, nca: NCAConfig, ga: GAConfig, seed: int,
                        backend: Backend, physics: Physics | None = None,
-                       duration: float | None = None, cut: str = PAPER_CUT,
-                       cell_cost: float = 0.1, resume: bool = False, force: bool = False,
-                       progress: bool = True) -> RunSummary:
+                       duration: float | None = None, starts: int = DEFAULT_STARTS,
+                       start_seed: int | None = None,
+                       cut: str = PAPER_CUT, cell_cost: float = 0.1, resume: bool = False,
+                       force: bool = False, progress: bool = True) -> RunSummary:
     """Evolve one NCA whose robot walks far and that regrows it after `cut`
     (`mjregen.tasks.grow_regrow`), into the run folder `out`. Arguments as for
     `evolve_locomotion`; `cut` ("paper" or a half-space condition) and `cell_cost` (voxel
     lengths per wrongly regrown cell) as for `GrowRegrowTask`."""
-    task = GrowRegrowTask(nca=nca, physics=physics or Physics(), duration=duration, cut=cut,
-                          cell_cost=cell_cost)
+    task = GrowRegrowTask(nca=nca, physics=physics or Physics(), duration=duration,
+                          starts=starts, start_seed=seed if start_seed is None else start_seed,
+                          cut=cut, cell_cost=cell_cost)
     return run_evolution(task, ga, seed=seed, out=out, backend=backend,
                          task_config=task.to_config(), resume=resume, force=force,
                          progress=progress)
@@ -76,12 +84,15 @@ def task_from_config(config: dict) -> LocomotionTask | GrowRegrowTask:
 
 def map_elites_locomotion(*, out: str | Path, nca: NCAConfig, config: MapElitesConfig,
                           seed: int, backend: Backend, physics: Physics | None = None,
-                          duration: float | None = None, resume: bool = False,
-                          force: bool = False, progress: bool = True) -> QDRunSummary:
+                          duration: float | None = None, starts: int = DEFAULT_STARTS,
+                          start_seed: int | None = None,
+                          resume: bool = False, force: bool = False, progress: bool = True
+                          ) -> QDRunSummary:
     """Search NCAs whose robots walk far across behaviour descriptors with MAP-Elites, into
     the run folder `out` (`mjregen.search.qd_runs`). Arguments as for `evolve_locomotion`,
     with `config` the MAP-Elites settings."""
-    task = LocomotionTask(nca=nca, physics=physics or Physics(), duration=duration)
+    task = LocomotionTask(nca=nca, physics=physics or Physics(), duration=duration,
+                          starts=starts, start_seed=seed if start_seed is None else start_seed)
     return run_map_elites(task, config, seed=seed, out=out, backend=backend,
                           task_config=task.to_config(), resume=resume, force=force,
                           progress=progress)

@@ -119,7 +119,8 @@ def run_map_elites(task: QDTask, config: MapElitesConfig, *, seed: int, out: str
     }
     shape = (task.nca.grid_size,) * task.nca.dim
     ranges = descriptor_ranges(config.descriptors, shape)
-    resumed = prepare_folder(out, run_config, resume=resume, force=force)
+    resumed = prepare_folder(out, run_config, resume=resume, force=force,
+                             task_class=type(task))
     finished = None if resumed or not resume else _finished_record(out, config.iterations)
     if finished is not None:
         return finished

@@ -48,6 +48,19 @@ def read_config(path: Path) -> dict:
     return config
 
 
+def read_task(task_class: type, description: object) -> object:
+    """`description` (a config.json "task" entry) as ``task_class`` writes it today: through
+    its ``from_config`` and ``to_config``; unchanged when the class has no ``from_config`` or
+    cannot read it (the comparison then reports the difference)."""
+    reader = getattr(task_class, "from_config", None)
+    if reader is None or not isinstance(description, dict):
+        return description
+    try:
+        return reader(description).to_config()
+    except (KeyError, TypeError, ValueError, MjregenError):
+        return description
+
+
 def _is_run_folder(path: Path) -> bool:
     """`path` holds an mjregen run: a config.json of this run format."""
     try:
@@ -71,9 +84,11 @@ def _check_deletable(out: Path) -> None:
 
 
 def prepare_folder(out: Path, config: dict, *, resume: bool, force: bool,
-                   checkpoint: str = "checkpoint.npz") -> bool:
+                   checkpoint: str = "checkpoint.npz", task_class: type | None = None) -> bool:
     """Create or check the run folder; returns True when an earlier run is resumed (its
-    `checkpoint` file exists).
+    `checkpoint` file exists). `task_class`: the task's class; with a ``from_config``, a
+    stored "task" entry is compared as that class reads it today (a description an older
+    mjregen wrote migrates: `read_task`).
 
     Raises:
       RunFolderError: both `resume` and `force`; nothing to resume; the folder holds a run
@@ -86,6 +101,8 @@ def prepare_folder(out: Path, config: dict, *, resume: bool, force: bool,
         if not config_path.is_file():
             raise RunFolderError(f"nothing to resume: {config_path} does not exist")
         stored = read_config(config_path)
+        if task_class is not None and "task" in stored:
+            stored = {**stored, "task": read_task(task_class, stored["task"])}
         differences = sorted(k for k in set(stored) | set(config)
                              if k not in ("created", "mjregen_version") and stored.get(k) != config.get(k))
         if differences:

@@ -222,7 +222,8 @@ def run_evolution(
         "format": RUN_FORMAT, "task": task_config, "ga": ga_config.to_dict(), "seed": seed,
         "mjregen_version": __version__, "created": datetime.now(timezone.utc).isoformat(),
     }
-    resuming = prepare_folder(out, config, resume=resume, force=force)
+    resuming = prepare_folder(out, config, resume=resume, force=force,
+                              task_class=type(task))
     finished = _finished_record(out, ga_config.generations) if resume and not resuming else None
     if finished is not None:
         return finished

@@ -1,8 +1,10 @@
 """Evaluation results, and one robot's locomotion evaluation as a worker job (no torch here).
 
 `evaluate_robot` is the function the evaluation backends run: it takes a small picklable
-job and returns a small picklable `RobotEvaluation` (no trajectories). A generation's
-results, whatever the task, are a `PopulationEvaluation`.
+job and returns a small picklable `RobotEvaluation` (no trajectories). A robot is scored from
+`RobotJob.starts` starts (`mjregen.physics.start_state`: every voxel moved by a seeded offset),
+compiled once: its fitness is the mean of theirs, and one unstable start makes the robot
+unstable. A generation's results, whatever the task, are a `PopulationEvaluation`.
 """
 
 from __future__ import annotations
@@ -13,23 +15,37 @@ import numpy as np
 
 from mjregen.grid import Material, Robot
 from mjregen.physics import Physics
-from mjregen.physics.simulation import simulate
+from mjregen.physics.simulation import simulate_starts
 from mjregen.tasks.fitness import locomotion_fitness
 
 
 @dataclass(frozen=True)
 class RobotJob:
-    """A robot grid (int8 array, any valid shape) with its physics and measured time (s)."""
+    """A robot grid (int8 array, any valid shape) with its physics, measured time (s; None =
+    the scene's), number of starts (>= 1; starts 0, 1, ...) and the starts' seed."""
 
     grid: np.ndarray
     physics: Physics
     duration: float | None = None
+    starts: int = 1
+    start_seed: int = 0
 
 
 @dataclass(frozen=True)
 class RobotEvaluation:
-    """The parts of a `mjregen.physics.simulation.Result` an evolution needs, and its
-    locomotion fitness."""
+    """What an evolution needs of a robot's walks from its starts.
+
+    Attributes:
+      fitness: the mean locomotion fitness over the starts; the unstable penalty when any
+        start was unstable.
+      distance: voxel lengths, the mean distance over the starts (NaN when unstable).
+      distance_min: voxel lengths, the shortest of them (NaN when unstable).
+      distances: voxel lengths, each start's distance (NaN where unstable).
+      n_voxels: voxels of the robot.
+      stable: every start stayed stable.
+      reason: why the first unstable start is unstable ("" when stable).
+      steps, cpu_time: summed over the starts (CPU s, compile included).
+    """
 
     fitness: float
     distance: float
@@ -38,6 +54,13 @@ class RobotEvaluation:
     reason: str
     steps: int
     cpu_time: float
+    distance_min: float = float("nan")
+    distances: tuple[float, ...] = ()
+
+    @property
+    def distance_std(self) -> float:
+        """Voxel lengths, the standard deviation of `distances` (0 for one start)."""
+        return float(np.std(self.distances)) if self.distances else float("nan")
 
 
 HARD_STEP_COST = 1.7  # steps of a robot with a hard voxel / without (measured on 3D blocks)
@@ -52,11 +75,20 @@ def expected_cost(grid: np.ndarray) -> float:
 
 
 def evaluate_robot(job: RobotJob) -> RobotEvaluation:
-    """Simulate `job.grid`; never raises for an unstable run (see `simulate`)."""
-    result = simulate(Robot(job.grid), physics=job.physics, duration=job.duration)
+    """Walk `job.grid` from its starts 0 .. ``job.starts`` - 1; never raises for an unstable
+    run (see `simulate`)."""
+    results = simulate_starts(Robot(job.grid), physics=job.physics, duration=job.duration,
+                              starts=range(job.starts), start_seed=job.start_seed)
+    unstable = [r for r in results if not r.stable]
+    distances = tuple(r.distance for r in results)
+    first = results[0]
     return RobotEvaluation(
-        fitness=locomotion_fitness(result), distance=result.distance, n_voxels=result.n_voxels,
-        stable=result.stable, reason=result.reason, steps=result.steps, cpu_time=result.cpu_time,
+        fitness=(locomotion_fitness(unstable[0]) if unstable
+                 else float(np.mean([locomotion_fitness(r) for r in results]))),
+        distance=float(np.mean(distances)), distance_min=float(np.min(distances)),
+        distances=distances, n_voxels=first.n_voxels, stable=not unstable,
+        reason=unstable[0].reason if unstable else "",
+        steps=sum(r.steps for r in results), cpu_time=sum(r.cpu_time for r in results),
     )
 
 

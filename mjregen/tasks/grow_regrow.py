@@ -24,7 +24,7 @@ from mjregen.grid import half_space_mask
 from mjregen.growth.nca import CAState, Growth, NCAConfig, grow
 from mjregen.physics import Physics
 from mjregen.tasks.evaluation import PopulationEvaluation
-from mjregen.tasks.locomotion import LocomotionTask
+from mjregen.tasks.locomotion import DEFAULT_STARTS, LocomotionTask
 from mjregen.tasks.regrowth import cut_half_space
 
 if TYPE_CHECKING:  # the search layer hands a task its backend
@@ -70,7 +70,7 @@ class GrowRegrowTask:
 
     Attributes:
       nca: the network that grows and regrows.
-      physics, duration: the walk, as in `LocomotionTask`.
+      physics, duration, starts, start_seed: the walk, as in `LocomotionTask`.
       cut: the damage during evolution: "paper" or a half-space condition ("y > 4").
       cell_cost: voxel lengths of walking one wrongly regrown cell costs.
     """
@@ -78,6 +78,8 @@ class GrowRegrowTask:
     nca: NCAConfig
     physics: Physics = field(default_factory=Physics)
     duration: float | None = None
+    starts: int = DEFAULT_STARTS
+    start_seed: int = 0
     cut: str = PAPER_CUT
     cell_cost: float = 0.1
     _locomotion: LocomotionTask = field(init=False, repr=False, compare=False)
@@ -87,7 +89,8 @@ class GrowRegrowTask:
             raise ValueError(f"cell_cost must be finite and >= 0, got {self.cell_cost!r}")
         half_space_mask(self.nca.grid_shape, cut_condition(self.cut, self.nca.grid_size))
         object.__setattr__(self, "_locomotion", LocomotionTask(
-            nca=self.nca, physics=self.physics, duration=self.duration))
+            nca=self.nca, physics=self.physics, duration=self.duration, starts=self.starts,
+            start_seed=self.start_seed))
 
     def to_config(self) -> dict:
         """The task as JSON (a run folder's config.json "task" entry)."""
@@ -105,7 +108,7 @@ class GrowRegrowTask:
             raise ValueError(f"not a grow-regrow task: {config.get('task')!r}")
         walk = LocomotionTask.from_config({**config, "task": "locomotion"})
         return cls(nca=walk.nca, physics=walk.physics, duration=walk.duration,
-                   cut=config["cut"], cell_cost=float(config["cell_cost"]))
+                   starts=walk.starts, start_seed=walk.start_seed, cut=config["cut"], cell_cost=float(config["cell_cost"]))
 
     @property
     def lowest_fitness(self) -> float:

@@ -3,8 +3,10 @@
 genomes ``(P, G)`` → batched NCA growth → the paper's cleaning → identical robots merged
 (each distinct grid is simulated once per generation) → robots already simulated in an
 earlier generation (elites, recurring shapes) taken from a cache → simulation of the rest on a
-backend → fitness. Simulation is deterministic, so the cache changes no result, only the time;
-a resumed run starts with an empty cache and gets the same numbers.
+backend, each robot from `starts` starts (every voxel moved by an offset seeded by
+`start_seed`, the start's index and the robot: `mjregen.physics.start_state`) → fitness, the
+mean over the starts. Simulation is deterministic, so the cache changes no result, only the
+time; a resumed run starts with an empty cache and gets the same numbers.
 Unstable simulations keep their penalty fitness; individuals whose evaluation failed twice
 (an exception or a dead worker) get the same penalty and are flagged `failed`.
 """
@@ -19,8 +21,10 @@ import numpy as np
 
 from mjregen.growth.nca import NCAConfig, grow
 from mjregen.physics import Physics
+from mjregen.physics.start_state import check_start
 from mjregen.tasks.evaluation import PopulationEvaluation, RobotJob, evaluate_robot, expected_cost
 from mjregen.tasks.fitness import EMPTY_FITNESS, UNSTABLE_FITNESS
+from mjregen.tasks.starts import DEFAULT_STARTS
 
 if TYPE_CHECKING:  # the search layer hands a task its backend
     from mjregen.search.backends import Backend
@@ -34,6 +38,8 @@ class LocomotionTask:
       nca: the NCA configuration the genomes belong to.
       physics: materials and scene of the simulation.
       duration: s of actuation measured; None = the scene's (the paper's 0.5 s / 0.25 s).
+      starts: starts each robot walks from (>= 1); its fitness is their mean.
+      start_seed: seed of the starts (>= 0; an evolution's is its run's seed).
       cache_size: robots whose results are kept across generations (least recently used
         dropped first); a robot seen again is not simulated again.
     """
@@ -41,18 +47,28 @@ class LocomotionTask:
     nca: NCAConfig
     physics: Physics = field(default_factory=Physics)
     duration: float | None = None
+    starts: int = DEFAULT_STARTS
+    start_seed: int = 0
     cache_size: int = 20_000
     _cache: OrderedDict = field(default_factory=OrderedDict, init=False, repr=False,
                                 compare=False)
 
+    def __post_init__(self) -> None:
+        if isinstance(self.starts, bool) or not isinstance(self.starts, (int, np.integer)) \
+                or self.starts < 1:
+            raise ValueError(f"starts must be a whole number >= 1, got {self.starts!r}")
+        check_start("start_seed", self.start_seed)
+
     def to_config(self) -> dict:
         """The task as JSON (a run folder's config.json "task" entry)."""
         return {"task": "locomotion", "nca": self.nca.to_dict(),
-                "physics": self.physics.to_dict(), "duration": self.duration}
+                "physics": self.physics.to_dict(), "duration": self.duration,
+                "starts": int(self.starts), "start_seed": int(self.start_seed)}
 
     @classmethod
     def from_config(cls, config: dict) -> LocomotionTask:
-        """The task `to_config` described (physics descriptions of any format migrate).
+        """The task `to_config` described (physics descriptions of any format migrate; a
+        description without starts is one from before them: one start, seed 0).
 
         Raises:
           ValueError: `config` is not a locomotion task's.
@@ -61,7 +77,8 @@ class LocomotionTask:
         if config.get("task") != "locomotion":
             raise ValueError(f"not a locomotion task: {config.get('task')!r}")
         return cls(nca=NCAConfig.from_dict(config["nca"]),
-                   physics=Physics.from_dict(config["physics"]), duration=config["duration"])
+                   physics=Physics.from_dict(config["physics"]), duration=config["duration"],
+                   starts=config.get("starts", 1), start_seed=config.get("start_seed", 0))
 
     @property
     def genome_size(self) -> int:
@@ -92,7 +109,8 @@ class LocomotionTask:
                              key=lambda d: -expected_cost(grids[firsts[d]]))
         outcomes = backend.map(
             evaluate_robot,
-            [RobotJob(grids[firsts[d]], self.physics, self.duration) for d in to_simulate],
+            [RobotJob(grids[firsts[d]], self.physics, self.duration, self.starts,
+                      self.start_seed) for d in to_simulate],
         )
         for d in cached:
             self._cache.move_to_end(keys[d])
@@ -103,24 +121,28 @@ class LocomotionTask:
             self._cache.popitem(last=False)
         n = len(distinct)
         fitness = np.full(n, EMPTY_FITNESS[dim], dtype=np.float64)
-        distance = np.zeros(n)
+        distance, lowest, spread = np.zeros(n), np.zeros(n), np.zeros(n)
         stable = np.ones(n, dtype=bool)
         failed = np.zeros(n, dtype=bool)
         errors, tracebacks, cpu = [], [], 0.0
-        for d, result in cached.items():
-            fitness[d], distance[d], stable[d] = result.fitness, result.distance, result.stable
+        results = dict(cached)
         for d, outcome in zip(to_simulate, outcomes):
             if outcome.ok:
-                result = outcome.value
-                fitness[d], distance[d], stable[d] = result.fitness, result.distance, result.stable
-                cpu += result.cpu_time
+                results[d] = outcome.value
+                cpu += outcome.value.cpu_time
             else:
-                fitness[d], distance[d], stable[d], failed[d] = UNSTABLE_FITNESS[dim], np.nan, False, True
+                fitness[d], stable[d], failed[d] = UNSTABLE_FITNESS[dim], False, True
+                distance[d] = lowest[d] = spread[d] = np.nan
                 errors.append(f"robot {d} (individual {firsts[d]}): {outcome.error}")
                 tracebacks.append(outcome.trace)
+        for d, result in results.items():
+            fitness[d], stable[d] = result.fitness, result.stable
+            distance[d], lowest[d], spread[d] = (result.distance, result.distance_min,
+                                                 result.distance_std)
         return PopulationEvaluation(
             fitness=fitness[owner], grids=grids,
-            details={"distance": distance[owner], "voxels": n_voxels},
+            details={"distance": distance[owner], "distance_min": lowest[owner],
+                     "distance_std": spread[owner], "voxels": n_voxels},
             stable=stable[owner], failed=failed[owner], errors=errors, tracebacks=tracebacks,
             n_distinct=n,
             sim_cpu_time=cpu,

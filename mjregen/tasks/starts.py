@@ -1,13 +1,14 @@
 """How much of a robot's walk belongs to its exact start: the walk from shifted starts.
 
-An evolution scores each robot from one start, the unperturbed rest state. A body that is
-its own mirror image keeps that symmetry from there (nothing in the physics breaks it) and
-may walk a way that a shift far below anything measurable ends; any gait near a parting of ways
-(a stick–slip event, a stride that flips) may likewise depend on it. `shifted_starts`
-walks the robot from that start and from `starts` others, each with every voxel moved by
-normal random amounts of `shift` voxel lengths (`mjregen.physics.simulation.simulate`'s
-``start_shift``; seeds `first_seed`, `first_seed` + 1, ...), so that a user can judge
-the robot by the distances it keeps.
+Every walk starts with each voxel moved by a seeded random offset (`Scene.start_shift`,
+`mjregen.physics.start_state`), and an evolution scores a robot by the mean of
+`DEFAULT_STARTS` such starts unless told otherwise. A body that is its own mirror image keeps
+that symmetry from the exact start (shift 0: nothing in the physics breaks it) and may walk
+a way that any shift ends; any gait near a parting of ways (a stick–slip event, a stride that
+flips) may likewise depend on its start. `shifted_starts` walks the robot from the exact
+start and from `starts` shifted ones (start indices 0, 1, ... of seed `start_seed`, every
+voxel moved by normal random amounts of `shift` voxel lengths), so that a user can judge the
+robot by the distances it keeps.
 """
 
 from __future__ import annotations
@@ -29,24 +30,23 @@ if TYPE_CHECKING:
     from mjregen.search.backends import Backend
 
 KEPT = 0.9  # a robot whose shifted starts keep less of its distance than this on average
-#             walks, from the unperturbed start, partly by that start
-STILL = 1e-3  # voxel lengths: an unperturbed walk shorter than this is no walk to keep
-DEFAULT_SHIFT = 1e-9  # voxel lengths (1e-12 m at the paper's 1 mm voxels)
-DEFAULT_STARTS = 20
-DEFAULT_FIRST_SEED = 1  # the shifted starts draw seeds 1, 2, ... (as benchmarks/accuracy.py does)
+#             walks, from the exact start, partly by that start
+STILL = 1e-3  # voxel lengths: a walk from the exact start shorter than this is no walk to keep
+DEFAULT_STARTS = 1  # starts per robot of an evolution's score (docs/transfer.md measures it)
+CHECK_STARTS = 20  # shifted starts of a robot's check, e.g. `mjregen walk --shifted-starts 20`
 
 
 @dataclass(frozen=True)
 class StartJob:
-    """One walk: a robot grid (int8), its physics, measured time (s; None = the scene's),
-    the start's shift (voxel lengths, 0 = unperturbed), the shift's seed, and whether to
-    record the centre-of-mass trajectory."""
+    """One walk: a robot grid (int8), its physics (whose scene's ``start_shift`` is the
+    start's: 0 = exact), measured time (s; None = the scene's), the start's seed and index,
+    and whether to record the centre-of-mass trajectory."""
 
     grid: np.ndarray
     physics: Physics
     duration: float | None
-    shift: float
     seed: int
+    index: int
     record: bool = False
 
 
@@ -55,17 +55,18 @@ def walk_from(job: StartJob) -> Result:
     from mjregen.physics.simulation import simulate
 
     return simulate(Robot(job.grid), physics=job.physics, duration=job.duration,
-                    record=job.record, start_shift=job.shift, shift_seed=job.seed)
+                    record=job.record, start_seed=job.seed, start=job.index)
 
 
 @dataclass(frozen=True)
 class ShiftedStarts:
-    """The walk from the unperturbed start and from the shifted ones.
+    """The walk from the exact start and from the shifted ones.
 
     Attributes:
-      default: the unperturbed start's `Result` (what an evolution scores).
+      default: the exact start's `Result` (start shift 0).
       shift: voxel lengths, standard deviation of every voxel's shift.
-      seeds: ``(starts,)`` the shifted starts' seeds.
+      seed: the shifted starts' seed.
+      indices: ``(starts,)`` the shifted starts' indices.
       distances: ``(starts,)`` voxel lengths from each shifted start; NaN where that walk
         became unstable.
       reasons: why each unstable walk is unstable ("" for the stable ones).
@@ -75,7 +76,8 @@ class ShiftedStarts:
 
     default: Result
     shift: float
-    seeds: tuple[int, ...]
+    seed: int
+    indices: tuple[int, ...]
     distances: np.ndarray
     reasons: tuple[str, ...]
     mirror_axes: tuple[str, ...]
@@ -106,7 +108,7 @@ class ShiftedStarts:
 
     @property
     def kept(self) -> float:
-        """`mean` / the unperturbed start's distance; NaN when that walk is unstable or
+        """`mean` / the exact start's distance; NaN when that walk is unstable or
         shorter than STILL (the robot does not walk)."""
         default = self.default.distance
         if not (math.isfinite(default) and default >= STILL):
@@ -115,59 +117,69 @@ class ShiftedStarts:
 
     @property
     def depends_on_start(self) -> bool:
-        """The shifted walks keep less than KEPT of the unperturbed start's distance on
+        """The shifted walks keep less than KEPT of the exact start's distance on
         average, or some of them became unstable."""
         return bool(self.kept < KEPT) or not bool(np.all(self.stable))
 
 
 def shifted_starts(robot: Robot, *, physics: Physics | None = None,
-                   duration: float | None = None, starts: int = DEFAULT_STARTS,
-                   shift: float = DEFAULT_SHIFT, first_seed: int = DEFAULT_FIRST_SEED,
+                   duration: float | None = None, starts: int = CHECK_STARTS,
+                   shift: float | None = None, start_seed: int = 0,
                    backend: Backend | None = None, record_default: bool = False
                    ) -> ShiftedStarts:
-    """Walk `robot` from the unperturbed start and from `starts` shifted ones.
+    """Walk `robot` from the exact start and from `starts` shifted ones.
 
     Args:
       robot: a non-empty `Robot`.
       physics: None = the paper's.
       duration: s of actuation that the distance counts; None = the scene's measured time.
-      starts: number of shifted starts (>= 1).
-      shift: voxel lengths, > 0: standard deviation of each voxel's shift.
-      first_seed: the first shifted start's seed (then +1 each); >= 0.
+      starts: number of shifted starts (>= 1): indices 0 .. `starts` - 1.
+      shift: voxel lengths, > 0: standard deviation of each voxel's shift; None = the
+        scene's ``start_shift`` (its default when that is 0).
+      start_seed: the shifted starts' seed (>= 0).
       backend: a `mjregen.search.backends.Backend` to run the walks on (None: in this
         process, one after another); every walk is the same whichever runs it.
-      record_default: record the unperturbed walk's centre-of-mass trajectory
+      record_default: record the exact start's centre-of-mass trajectory
         (`simulate`'s ``record``).
     Raises:
-      MjregenError: an empty robot, `starts` < 1, `shift` not a finite number > 0, or a
-        walk that failed on `backend` (its reason).
-      PhysicsParameterError: bad `duration` or `first_seed` (from `simulate`).
+      MjregenError: an empty robot, `starts` < 1, `shift` not a number > 0 within the
+        scene's range, or a walk that failed on `backend` (its reason).
+      PhysicsParameterError: bad `duration` (from `simulate`).
+      CompileError: `start_seed` not a whole number >= 0.
     """
     if robot.is_empty:
         raise MjregenError("an empty robot has no walk to start")
     if isinstance(starts, bool) or not isinstance(starts, int) or starts < 1:
         raise MjregenError(f"starts must be a whole number >= 1, got {starts!r}")
+    from mjregen.physics import Physics
+    from mjregen.physics.params import DEFAULT_START_SHIFT
+
+    physics = Physics() if physics is None else physics
+    if shift is None:
+        shift = physics.scene.start_shift or DEFAULT_START_SHIFT
     if isinstance(shift, bool) or not isinstance(shift, (int, float)) \
             or not (math.isfinite(shift) and shift > 0.0):
         raise MjregenError(f"shift must be a finite number of voxel lengths > 0, got {shift!r}")
-    if physics is None:
-        from mjregen.physics import Physics
-
-        physics = Physics()
-    seeds = tuple(range(first_seed, first_seed + starts))
+    try:
+        shifted = physics.replace(start_shift=float(shift))
+    except ValueError as error:
+        raise MjregenError(f"shift: {error}") from None
+    exact = physics.replace(start_shift=0.0)
+    indices = tuple(range(starts))
     grid = np.asarray(robot.grid)
-    jobs = [StartJob(grid, physics, duration, 0.0, 0, record=record_default)]
-    jobs += [StartJob(grid, physics, duration, float(shift), seed) for seed in seeds]
+    jobs = [StartJob(grid, exact, duration, 0, 0, record=record_default)]
+    jobs += [StartJob(grid, shifted, duration, start_seed, index) for index in indices]
     if backend is None:
         results = [walk_from(job) for job in jobs]
     else:
         outcomes = backend.map(walk_from, jobs)
         for job, outcome in zip(jobs, outcomes):
             if not outcome.ok:
-                which = f"shifted start (seed {job.seed})" if job.shift else "unperturbed start"
+                which = (f"shifted start {job.index} (seed {job.seed})"
+                         if job.physics.scene.start_shift else "exact start")
                 raise MjregenError(f"the walk from the {which} failed: {outcome.error}")
         results = [outcome.value for outcome in outcomes]
     return ShiftedStarts(
-        default=results[0], shift=float(shift), seeds=seeds,
+        default=results[0], shift=float(shift), seed=start_seed, indices=indices,
         distances=np.array([r.distance for r in results[1:]], dtype=float),
         reasons=tuple(r.reason for r in results[1:]), mirror_axes=robot.mirror_axes())

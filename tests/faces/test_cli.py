@@ -12,6 +12,7 @@ from mjregen.cli import main
 from mjregen.grid import Robot
 from mjregen.growth.checkpoint import save_nca
 from mjregen.growth.nca import NCA, NCAConfig
+from mjregen.physics import Physics
 
 
 def test_grow_random_nca_json_matches_the_library(tmp_path, capsys):
@@ -107,21 +108,38 @@ def test_walk_json_equals_simulate(tmp_path, capsys):
 
 
 def test_walk_from_shifted_starts_reports_what_they_keep(capsys):
-    """walker_2, its own mirror image across y, keeps about half its distance from starts
-    shifted by 1e-9 voxel lengths: the command says so, and its numbers are the library's."""
+    """The mirror walker, its own mirror image across y, keeps a fraction of its exact
+    start's distance from shifted starts: the command says so, and its numbers are the
+    library's."""
     from mjregen.tasks.starts import shifted_starts
 
-    walker = "assets/robots/walkers/walker_2.npy"
+    walker = "assets/robots/mirror_walker_3d.npy"
     assert main(["walk", walker, "--shifted-starts", "2", "--workers", "2", "--json"]) == 0
     report = json.loads(capsys.readouterr().out)["shifted_starts"]
     expected = shifted_starts(Robot.load(walker), starts=2)
-    assert report["distances"] == expected.distances.tolist() and report["seeds"] == [1, 2]
+    assert report["distances"] == expected.distances.tolist() and report["seed"] == 0
     assert report["kept"] == expected.kept < 0.9 and report["depends_on_start"]
-    assert report["mirror_axes"] == ["y"] and report["shift"] == 1e-9
-    assert main(["walk", walker, "--shifted-starts", "2", "--shift-seed", "1"]) == 0
+    assert report["mirror_axes"] == ["y"] and report["shift"] == 1e-4
+    assert main(["walk", walker, "--shifted-starts", "2", "--start-seed", "1"]) == 0
     text = capsys.readouterr().out
     assert "2 shifted starts" in text and "mirror image across y" in text
     assert "walks partly by its exact start" in text
+
+
+def test_walk_from_several_starts_reports_the_score_an_evolution_gives(capsys):
+    """--starts K: the mean fitness of K starts, as `evaluate_robot` scores a robot."""
+    from mjregen.tasks.evaluation import RobotJob, evaluate_robot
+
+    robot = Robot.load(WALKER)
+    assert main(["walk", WALKER, "--starts", "3", "--start-seed", "2", "--duration", "0.05",
+                 "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    scored = evaluate_robot(RobotJob(np.asarray(robot.grid), Physics(), 0.05, 3, 2))
+    assert report["starts"]["distances"] == list(scored.distances)
+    assert report["starts"]["fitness"] == scored.fitness and report["starts"]["seed"] == 2
+    assert report["distance"] == scored.distances[0]
+    assert main(["walk", WALKER, "--starts", "2", "--shifted-starts", "2"]) == 1
+    assert "not both" in capsys.readouterr().err
 
 
 def test_walk_json_of_starts_that_did_not_walk_is_valid_json(capsys):
@@ -143,8 +161,7 @@ def test_walk_refuses_a_bad_count_of_starts_or_workers(capsys, arguments, messag
     assert exit_info.value.code == 2 and message in capsys.readouterr().err
 
 
-@pytest.mark.parametrize("arguments", [["--shift", "1e-6"], ["--shift-seed", "3"],
-                                       ["--workers", "2"]])
+@pytest.mark.parametrize("arguments", [["--shift", "1e-6"], ["--workers", "2"]])
 def test_walk_refuses_shifted_start_options_without_shifted_starts(capsys, arguments):
     assert main(["walk", WALKER, *arguments]) == 1
     assert "are for --shifted-starts N" in capsys.readouterr().err
