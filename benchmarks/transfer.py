@@ -1,0 +1,209 @@
+"""Does a robot's walk transfer? mjregen from several starts and orientations, beside the
+paper's engine.
+
+    python benchmarks/transfer.py --voxelyze DIR [ROBOT ...] [--starts 10] [--assets assets]
+        [--json out.json]
+
+DIR holds the paper's engine with its runner ``vxa.py`` (``vxa.py ROBOT.npy`` prints
+``{"distance": voxel lengths, ...}``). ROBOT: a robot file (.npy), or ``NAME=PATH`` to
+name it. Each robot is walked in mjregen
+  - from ``--starts`` starts of seed 0 (indices 0 ..; ``mjregen walk --starts N``): their
+    mean is its distance,
+  - from as many fresh starts (seed 1),
+  - with its grid rotated by 90, 180 and 270 degrees about z (start 0 each; 2D: mirrored),
+  - from the exact start (start shift 0: every voxel on its grid position, what every
+    evolution scored before the start shift),
+and in the paper's engine (3D only: the engine runs 3D grids). A robot transfers
+(`TRANSFER_RULE`) when the fresh starts and the rotations keep >= 90 % of its distance on
+average and the engine walks it >= 80 % as far.
+
+``--assets DIR`` also measures every evolved walker the package ships (``DIR/nca/
+manifest.json``, ``DIR/robots/walkers/walkers.json``) and writes each one's measurements,
+the rule and the verdict into its manifest entry as "transfer" (`tests/test_assets.py`
+checks the mjregen side of them).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+import tempfile
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+
+from mjregen.grid import Robot
+from mjregen.physics import Physics
+from mjregen.physics.simulation import simulate, simulate_starts
+
+KEEP = 0.9  # share of the default distance the shifted starts and the rotations keep
+ENGINE = 0.8  # share of the default distance the paper's engine walks
+TRANSFER_RULE = (f"fresh starts and rotations keep >= {KEEP:.0%} of the distance on average, "
+                 f"and the paper's engine walks >= {ENGINE:.0%} of it")
+
+
+@dataclass
+class Transfer:
+    """One robot's walks, voxel lengths (module docstring); `engine` None for 2D."""
+
+    name: str
+    voxels: int
+    mirror_axes: list[str]
+    starts: list[float]
+    fresh: list[float]
+    rotated: list[float]
+    exact: float
+    engine: float | None
+
+    @property
+    def distance(self) -> float:
+        """The mean over the starts of seed 0."""
+        return float(np.mean(self.starts))
+
+    @property
+    def fresh_kept(self) -> float:
+        return float(np.mean(self.fresh)) / self.distance
+
+    @property
+    def rotated_kept(self) -> float:
+        return float(np.mean(self.rotated)) / self.distance
+
+    @property
+    def engine_ratio(self) -> float | None:
+        return None if self.engine is None else self.engine / self.distance
+
+    @property
+    def transfers(self) -> bool:
+        engine = self.engine_ratio
+        return (self.fresh_kept >= KEEP and self.rotated_kept >= KEEP
+                and engine is not None and engine >= ENGINE)
+
+
+def engine_distance(voxelyze: Path, robot: Robot) -> float | None:
+    """The paper's engine's distance of a 3D robot (voxel lengths); None for 2D."""
+    if robot.dim != 3:
+        return None
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "robot.npy"
+        np.save(path, np.asarray(robot.grid))
+        done = subprocess.run([sys.executable, str(voxelyze / "vxa.py"), str(path)],
+                              capture_output=True, text=True, check=True)
+    return float(json.loads(done.stdout)["distance"])
+
+
+def rotations(robot: Robot) -> list[Robot]:
+    """The robot turned about z: by 90, 180 and 270 degrees in 3D; mirrored in x in 2D (a
+    half turn about z of a robot in the x-z plane)."""
+    grid = np.asarray(robot.grid)
+    if robot.dim == 2:
+        return [Robot(np.ascontiguousarray(grid[::-1, :]))]
+    return [Robot(np.ascontiguousarray(np.rot90(grid, k, axes=(0, 1)))) for k in (1, 2, 3)]
+
+
+def measure(name: str, robot: Robot, *, voxelyze: Path, starts: int) -> Transfer:
+    """Walk `robot` every way (module docstring)."""
+    def distances(seed: int) -> list[float]:
+        return [r.distance for r in simulate_starts(robot, start_seed=seed,
+                                                    starts=range(starts))]
+
+    exact = simulate(robot, physics=Physics().replace(start_shift=0.0))
+    return Transfer(name=name, voxels=robot.n_voxels, mirror_axes=list(robot.mirror_axes()),
+                    starts=distances(0), fresh=distances(1),
+                    rotated=[simulate(r).distance for r in rotations(robot)],
+                    exact=exact.distance, engine=engine_distance(voxelyze, robot))
+
+
+def _cell(value: float | None, digits: int = 2) -> str:
+    return "n/a" if value is None else f"{value:.{digits}f}"
+
+
+def _spread(values: list[float]) -> str:
+    return f"{np.mean(values):.2f} ({min(values):.2f}-{max(values):.2f})"
+
+
+def markdown(rows: list[Transfer], starts: int) -> str:
+    """The table of docs/transfer.md."""
+    lines = [f"| robot | voxels | mirror plane | distance: {starts} starts, mean (min-max) | "
+             f"{starts} fresh starts | kept | rotated 90/180/270 | kept | exact start | "
+             "paper's engine | engine / distance | transfers |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        lines.append(
+            f"| {r.name} | {r.voxels} | {', '.join(r.mirror_axes) or 'none'} | "
+            f"{_spread(r.starts)} | {_spread(r.fresh)} | {r.fresh_kept:.0%} | "
+            f"{' / '.join(f'{d:.2f}' for d in r.rotated)} | {r.rotated_kept:.0%} | "
+            f"{r.exact:.2f} | {_cell(r.engine)} | {_cell(r.engine_ratio)} | "
+            f"{'yes' if r.transfers else 'no'} |")
+    return "\n".join(lines)
+
+
+def shipped_walkers(assets: Path) -> list[tuple[str, Path, Path, list]]:
+    """(name, robot file, manifest file, path of the entry in the manifest) of every evolved
+    walker under `assets` (placeholders left out)."""
+    found = []
+    manifest = assets / "nca" / "manifest.json"
+    for key, entry in json.loads(manifest.read_text()).items():
+        if not entry.get("placeholder") and "robot_file" in entry:
+            found.append((Path(key).stem, manifest.parent / entry["robot_file"], manifest, [key]))
+    walkers = assets / "robots" / "walkers" / "walkers.json"
+    for i, entry in enumerate(json.loads(walkers.read_text())["walkers"]):
+        found.append((entry["name"], walkers.parent / entry["robot_file"], walkers,
+                      ["walkers", i]))
+    return found
+
+
+def record(manifest: Path, where: list, row: Transfer, starts: int) -> None:
+    """Write `row` into the manifest entry at `where` as its "transfer" block."""
+    from datetime import UTC, datetime
+
+    from mjregen.fileio import atomic_open
+
+    content = json.loads(manifest.read_text())
+    entry = content
+    for step in where:
+        entry = entry[step]
+    entry["transfer"] = {
+        "physics": Physics().to_dict(), "starts": starts, "distance": row.distance,
+        "distances": row.starts, "fresh": float(np.mean(row.fresh)),
+        "fresh_distances": row.fresh, "rotated": row.rotated, "exact_start": row.exact,
+        "engine": row.engine, "rule": TRANSFER_RULE, "transfers": row.transfers,
+        "measured": datetime.now(UTC).date().isoformat(),
+        "command": "python benchmarks/transfer.py --voxelyze DIR --assets assets"}
+    with atomic_open(manifest, "w", overwrite=True) as handle:
+        json.dump(content, handle, indent=2)
+        handle.write("\n")
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--voxelyze", type=Path, required=True,
+                        help="folder of the paper's engine and its vxa.py")
+    parser.add_argument("robots", nargs="*", help="robot files (.npy) or NAME=PATH")
+    parser.add_argument("--starts", type=int, default=10)
+    parser.add_argument("--assets", type=Path,
+                        help="also measure the shipped walkers and record them (docstring)")
+    parser.add_argument("--json", type=Path)
+    args = parser.parse_args(argv)
+    todo = [(name or Path(path).stem, Path(path), None, None)
+            for name, _, path in (item.rpartition("=") for item in args.robots)]
+    if args.assets is not None:
+        todo += shipped_walkers(args.assets)
+    rows = []
+    for name, path, manifest, where in todo:
+        rows.append(measure(name, Robot.load(path), voxelyze=args.voxelyze, starts=args.starts))
+        if manifest is not None:
+            record(manifest, where, rows[-1], args.starts)
+        print(markdown(rows[-1:], args.starts).splitlines()[-1], flush=True)
+    print(markdown(rows, args.starts))
+    if args.json is not None:
+        args.json.write_text(json.dumps(
+            [asdict(r) | {"distance": r.distance, "transfers": r.transfers} for r in rows],
+            indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
