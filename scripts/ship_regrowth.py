@@ -9,11 +9,14 @@ against the run's record, copy the NCA to assets/regen/<robot>_<net>.npz and wri
 in assets/regen/manifest.json: robot, network, start state, damage, similarity (cells of
 729), the three distances and percentages, the GA's scale and the generations run, the run's
 wall time, the date, versions and the git commit, and the sha256 of the file.
-tests/test_assets.py replays every entry. Nothing that exists is replaced without
---overwrite.
+The entry records the physics of its walks; tests/test_assets.py replays every entry with
+it. Nothing that exists is replaced without --overwrite. `--refresh` walks every shipped
+entry again with today's default physics (after the default changed) and rewrites its
+distances, percentages, physics, versions and commit, keeping its run's provenance.
 
-Example:
+Examples:
   python scripts/ship_regrowth.py runs/table1/biped_ff runs/table1/tripod_ff --overwrite
+  python scripts/ship_regrowth.py --refresh
 """
 
 from __future__ import annotations
@@ -49,27 +52,48 @@ def entry_of(run: Path) -> tuple[str, dict]:
     if replay.similarity != recorded:
         raise MjregenError(f"{path}: regrows {replay.similarity} cells, the run recorded "
                            f"{recorded}")
-    report = replay.report.to_dict()
     net = config["task"]["nca"]["kind"]
     robot = replay.metadata["robot"]
     return f"{robot}_{net}.npz", {
         "robot": robot, "net": net, "start": replay.metadata["start"],
         "source": replay.metadata["source"], "damage": replay.metadata["damage"],
-        "similarity": replay.similarity, "grid_cells": report["grid_cells"],
-        "damaged_similarity": report["similarity"]["damaged"],
-        "distance": report["distance"], "percent_of_original": report["percent_of_original"],
-        "voxels": report["voxels"], "duration": report["duration"],
+        "similarity": replay.similarity, **walks_of(replay),
         "ga": config["ga"], "seed": config["seed"], "generations_run": len(rows),
         "best_generation": replay.metadata["generation"],
         "run_wall_s": float(rows[-1]["elapsed"]) if rows else 0.0,
-        "shipped": datetime.now(UTC).date().isoformat(), "versions": versions(),
-        "git": git_commit(),
+        "shipped": datetime.now(UTC).date().isoformat(),
     }
+
+
+def walks_of(replay) -> dict:
+    """The entry's fields that its walks decide: cells, distances, percentages, voxels,
+    duration, the physics (today's default), versions and commit."""
+    from mjregen.physics import Physics
+
+    report = replay.report.to_dict()
+    return {"grid_cells": report["grid_cells"],
+            "damaged_similarity": report["similarity"]["damaged"],
+            "distance": report["distance"], "percent_of_original": report["percent_of_original"],
+            "voxels": report["voxels"], "duration": report["duration"],
+            "physics": Physics().to_dict(), "versions": versions(), "git": git_commit()}
+
+
+def refresh(folder: Path, manifest: dict) -> None:
+    """Walk every shipped entry again with today's default physics (`walks_of`)."""
+    for name, entry in manifest.items():
+        replay = replay_regrowth(folder / entry["file"])
+        if replay.similarity != entry["similarity"]:
+            raise MjregenError(f"{name}: regrows {replay.similarity} cells, its entry records "
+                               f"{entry['similarity']}")
+        entry.update(walks_of(replay), refreshed=datetime.now(UTC).date().isoformat())
+        print(f"{name}: distances {entry['distance']}")
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("runs", nargs="+", type=Path, help="regrowth run folders")
+    parser.add_argument("runs", nargs="*", type=Path, help="regrowth run folders")
+    parser.add_argument("--refresh", action="store_true",
+                        help="walk every shipped entry again with today's default physics")
     parser.add_argument("--assets", type=Path, default=ROOT / "assets")
     parser.add_argument("--overwrite", action="store_true",
                         help="replace shipped files and entries of the same name")
@@ -78,7 +102,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     folder.mkdir(parents=True, exist_ok=True)
     manifest_path = folder / MANIFEST
     manifest = json.loads(manifest_path.read_text()) if manifest_path.is_file() else {}
+    if not args.runs and not args.refresh:
+        parser.error("name regrowth run folders, or --refresh")
     try:
+        if args.refresh:
+            refresh(folder, manifest)
         for run in args.runs:
             name, entry = entry_of(run)
             target = folder / name

@@ -23,7 +23,8 @@ from mjregen.physics.migrate import PHYSICS_FORMAT
 from mjregen.physics.simulation import simulate
 from mjregen.tasks.fitness import locomotion_fitness
 
-NCA_DIR = Path(__file__).resolve().parents[1] / "assets" / "nca"
+ASSETS = Path(__file__).resolve().parents[1] / "assets"
+NCA_DIR = ASSETS / "nca"
 MANIFEST = json.loads((NCA_DIR / "manifest.json").read_text())
 REAL = sorted(k for k, v in MANIFEST.items() if not v.get("placeholder", False))
 RTOL, ATOL = 1e-6, 1e-9  # fitness; deterministic evaluation
@@ -89,8 +90,10 @@ def test_shipped_physics_descriptions_migrate_to_what_they_were_evaluated_with(k
         assert MANIFEST["walker_3d.npz"]["placeholder"] is True
         return
     old = MANIFEST[key]["evaluation"]["physics"]
-    if "format" in old:  # re-shipped since: today's format, nothing to migrate
-        assert migrate_physics(old) == old
+    if "format" in old:  # re-shipped since: format 4, before the start shift (exact starts)
+        migrated = migrate_physics(old)
+        assert migrated["scene"] == {**old["scene"], "start_shift": 0.0}
+        assert migrated["pipeline"] == old["pipeline"] and migrated["format"] == 5
         return
     scene = old["scene"]
     assert scene["contact_shape"] == "engine" and "bond_element" not in scene
@@ -128,14 +131,59 @@ def test_every_shipped_regrowth_nca_has_a_manifest_entry():
 @pytest.mark.parametrize("key", sorted(REGEN))
 def test_shipped_regrowth_nca_reproduces_its_manifest(key):
     """Replayed as scripts/ship_regrowth.py replayed it: the recorded damaged state regrown
-    by the NCA (the cells exactly), the three robots walked with the default physics."""
+    by the NCA (the cells exactly), the three robots walked with the recorded physics (the
+    default of the day it was walked)."""
     from mjregen.experiments.regrowth import replay_regrowth
 
     entry = REGEN[key]
     path = REGEN_DIR / entry["file"]
     assert sha256(path) == entry["sha256"]
-    replay = replay_regrowth(path)
+    replay = replay_regrowth(path, physics=Physics.from_dict(entry["physics"]))
     assert replay.similarity == entry["similarity"] == replay.metadata["similarity"]
     assert replay.metadata["robot"] == entry["robot"] and replay.metadata["start"] == entry["start"]
     for role, distance in replay.report.distance.items():
         assert distance == pytest.approx(entry["distance"][role], rel=RTOL, abs=ATOL), role
+
+
+def shipped_walkers() -> dict[str, tuple[Path, dict]]:
+    """Each distinct evolved 3D walker robot that assets/ ships: name -> (robot file, its
+    "transfer" record)."""
+    found, robots = {}, set()
+    walkers = json.loads((ASSETS / "robots" / "walkers" / "walkers.json").read_text())["walkers"]
+    entries = [(Path(k).stem, NCA_DIR / e["robot_file"], e) for k, e in MANIFEST.items()
+               if not e.get("placeholder") and e["nca"]["dim"] == 3]
+    entries += [(w["name"], ASSETS / "robots" / "walkers" / w["robot_file"], w) for w in walkers]
+    for name, path, entry in entries:
+        if sha256(path) not in robots:
+            robots.add(sha256(path))
+            found[name] = (path, entry["transfer"])
+    return found
+
+
+WALKERS = shipped_walkers()
+
+
+@pytest.mark.parametrize("name", sorted(WALKERS))
+def test_shipped_walkers_keep_their_walk_from_fresh_starts_and_turned(name):
+    """The mjregen side of the transfer check (benchmarks/transfer.py): with today's default
+    physics the walker's starts of seed 0 walk what its record says, three fresh starts
+    (seed 1) and its grid turned by 90, 180 and 270 degrees about z keep >= 90 % of its
+    recorded distance, and the paper's engine walked it >= 80 % as far (recorded: the
+    engine is not part of the package)."""
+    from mjregen.physics.simulation import simulate_starts
+
+    path, record = WALKERS[name]
+    robot = Robot.load(path)
+    assert record["physics"] == Physics().to_dict() and record["transfers"]
+    distance = record["distance"]
+    assert distance == pytest.approx(np.mean(record["distances"]), rel=1e-12)
+    again = [r.distance for r in simulate_starts(robot, starts=range(2))]
+    assert again == pytest.approx(record["distances"][:2], rel=1e-9)
+    fresh = [r.distance for r in simulate_starts(robot, start_seed=1, starts=range(3))]
+    assert np.mean(fresh) >= 0.9 * distance
+    grid = np.asarray(robot.grid)
+    turned = [simulate(Robot(np.ascontiguousarray(np.rot90(grid, k, axes=(0, 1))))).distance
+              for k in (1, 2, 3)]
+    assert turned == pytest.approx(record["rotated"], rel=1e-9)
+    assert np.mean(turned) >= 0.9 * distance
+    assert record["engine"] >= 0.8 * distance
