@@ -2,7 +2,8 @@
 
 The folder holds
   config.json     everything that determines the run (task, GA settings, seed)
-  metrics.csv     one row per generation (see `METRICS`)
+  metrics.csv     one row per generation (see `METRICS`; walking tasks add the best
+                  individual's shortest walk and the spread of its walks over its starts)
   best/gen_NNNN.npz, best/gen_NNNN.npy   each generation's best genome (NCA checkpoint)
                   and its robot
   fitness.png     best and mean fitness per generation, redrawn every generation
@@ -55,7 +56,11 @@ from mjregen.tasks.evaluation import PopulationEvaluation
 
 PLOT_EVERY = 10.0  # s of wall time between redraws of fitness.png (and after the last generation)
 METRICS = ("generation", "best", "mean", "median", "std", "unstable", "failed", "distinct",
-           "evaluations", "evals_per_s", "wall_time", "elapsed")
+           "evaluations", "evals_per_s", "wall_time", "elapsed", "best_distance_min",
+           "best_distance_std")
+# the generation's best individual's shortest walk and the spread of its walks over its starts
+# (voxel lengths; empty for tasks without them)
+SPREAD = {"best_distance_min": "distance_min", "best_distance_std": "distance_std"}
 
 
 class Task(Protocol):
@@ -169,17 +174,19 @@ def _finished_record(out: Path, generations: int) -> RunSummary | None:
                       best_generation=best[1], best_genome=np.asarray(best[2], dtype=np.float32))
 
 
-def _metrics_row(result: PopulationEvaluation, *, generation: int, wall: float,
+def _metrics_row(result: PopulationEvaluation, *, generation: int, top: int, wall: float,
                  elapsed: float) -> dict:
-    """A generation's metrics.csv row (`METRICS`)."""
+    """A generation's metrics.csv row (`METRICS`); `top`: its best individual."""
     fitness = result.fitness
+    spread = {column: (f"{result.details[name][top]:.6g}" if name in result.details else "")
+              for column, name in SPREAD.items()}
     return {
         "generation": generation, "best": f"{fitness.max():.6g}", "mean": f"{fitness.mean():.6g}",
         "median": f"{np.median(fitness):.6g}", "std": f"{fitness.std():.6g}",
         "unstable": int(np.count_nonzero(~result.stable & ~result.failed)),
         "failed": int(np.count_nonzero(result.failed)), "distinct": result.n_distinct,
         "evaluations": len(fitness), "evals_per_s": f"{len(fitness) / wall:.4g}",
-        "wall_time": f"{wall:.4g}", "elapsed": f"{elapsed:.6g}",
+        "wall_time": f"{wall:.4g}", "elapsed": f"{elapsed:.6g}", **spread,
     }
 
 
@@ -259,7 +266,8 @@ def run_evolution(
                    top, generation=generation, seed=seed)
         wall = time.perf_counter() - start
         elapsed += wall
-        rows.append(_metrics_row(result, generation=generation, wall=wall, elapsed=elapsed))
+        rows.append(_metrics_row(result, generation=generation, top=top, wall=wall,
+                                elapsed=elapsed))
         write_metrics(out / "metrics.csv", METRICS, rows)
         fitness = result.fitness
         if time.perf_counter() - last_plot > PLOT_EVERY or ga.generation == ga_config.generations:

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import mjregen.tasks.locomotion as locomotion
-from mjregen.grid import Material
+from mjregen.grid import Material, Robot
 from mjregen.growth.nca import NCAConfig, grow
 from mjregen.growth.networks import random_genomes
 from mjregen.physics import Physics
@@ -156,3 +156,72 @@ def test_a_task_and_its_run_configuration_are_one():
     assert (again.nca, again.physics, again.duration) == (task.nca, task.physics, task.duration)
     with pytest.raises(ValueError, match="not a locomotion task: 'regrowth'"):
         locomotion.LocomotionTask.from_config({**config, "task": "regrowth"})
+
+
+def test_a_robot_is_scored_by_the_mean_of_its_starts():
+    """K starts: the fitness is the mean of the K walks' fitnesses (each `simulate` from
+    start k of the task's seed), the details their mean, shortest and spread."""
+    genomes = population()[:4]
+    task = fresh_task(starts=3, start_seed=5)
+    result = task.evaluate(genomes, SerialBackend())
+    grids = grow(NCA, genomes).grids
+    checked = 0
+    for i, grid in enumerate(grids):
+        if not grid.any():
+            continue
+        walks = [simulate(grid, physics=QUICK, duration=0.02, start_seed=5, start=k)
+                 for k in range(3)]
+        distances = [w.distance for w in walks]
+        assert result.fitness[i] == np.mean([locomotion_fitness(w) for w in walks])
+        assert result.details["distance"][i] == np.mean(distances)
+        assert result.details["distance_min"][i] == min(distances)
+        assert result.details["distance_std"][i] == pytest.approx(np.std(distances))
+        checked += 1
+    assert checked >= 2
+    other = fresh_task(starts=3, start_seed=6).evaluate(genomes, SerialBackend())
+    assert not np.array_equal(other.fitness, result.fitness)  # the seed names the starts
+
+
+def test_one_unstable_start_makes_the_robot_unstable(monkeypatch):
+    """Of two starts, one diverged: the robot is unstable and gets the penalty, never the
+    other start's fitness."""
+    import dataclasses
+
+    from mjregen.tasks import evaluation
+
+    walk = simulate(Robot.load("assets/robots/bimorph_walker_2d.npy"), physics=QUICK,
+                    duration=0.02)
+    diverged = dataclasses.replace(walk, stable=False, reason="runaway speed",
+                                   distance=float("nan"))
+    monkeypatch.setattr(evaluation, "simulate_starts", lambda *a, **k: [walk, diverged])
+    job = evaluation.RobotJob(np.zeros((7, 7), dtype=np.int8), QUICK, 0.02, 2)
+    scored = evaluation.evaluate_robot(job)
+    assert not scored.stable and scored.reason == "runaway speed"
+    assert scored.fitness == UNSTABLE_FITNESS[2] and np.isnan(scored.distance)
+
+
+def test_backends_agree_on_scores_from_several_starts():
+    genomes = population()
+    reference = fresh_task(starts=2, start_seed=1).evaluate(genomes, SerialBackend()).fitness
+    for backend in (ThreadBackend(2), ProcessBackend(2)):
+        with backend:
+            scored = fresh_task(starts=2, start_seed=1).evaluate(genomes, backend).fitness
+            assert np.array_equal(scored, reference), backend.name
+
+
+def test_a_task_described_before_starts_reads_as_one_exact_start():
+    config = TASK.to_config()
+    assert config["starts"] == 1 and config["start_seed"] == 0
+    older = {k: v for k, v in config.items() if k not in ("starts", "start_seed")}
+    older["physics"] = {**older["physics"], "format": 4,
+                        "scene": {k: v for k, v in older["physics"]["scene"].items()
+                                  if k != "start_shift"}}
+    task = locomotion.LocomotionTask.from_config(older)
+    assert (task.starts, task.start_seed, task.physics.scene.start_shift) == (1, 0, 0.0)
+
+
+@pytest.mark.parametrize("kwargs", [{"starts": 0}, {"starts": 1.5}, {"starts": True},
+                                    {"start_seed": -1}])
+def test_bad_starts_are_refused(kwargs):
+    with pytest.raises(ValueError, match="start"):
+        fresh_task(**kwargs)
