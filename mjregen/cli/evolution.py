@@ -172,15 +172,28 @@ def _stored_run(args: argparse.Namespace) -> tuple:
     return task, ga, seed
 
 
+def _compare_finals(group_args: list[list[str]], column: str, groups: dict):
+    """The two groups' runs compared at the last generation every run reached."""
+    from mjregen.search.compare import compare_groups
+    from mjregen.search.stats import read_curve
+
+    last = min(len(stats.generations) for stats in groups.values()) - 1
+    finals = [[read_curve(run, column)[last] for run in runs] for _, *runs in group_args]
+    return compare_groups(*finals)
+
+
 def add_evolve_stats(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
         "evolve-stats",
         help="mean best fitness (MAP-Elites: QD score and coverage) with bootstrapped 95%% "
-             "CIs over several runs",
+             "CIs over several runs; two groups are compared by exact tests",
         description="Plot the mean (over runs) of metrics.csv columns per generation (MAP-Elites: "
         "iteration), with bootstrapped 95% confidence bands, one curve per group. Default "
         "columns: best for GA runs or mixed groups, qd_score and coverage when every run is a "
-        "MAP-Elites run. Example: mjregen evolve-stats --group ff runs/ff_* --group lstm "
+        "MAP-Elites run. With two groups, each run's value at the last generation all reached "
+        "is compared by an exact Mann-Whitney U test and a permutation test of the means, with "
+        "the smallest p the groups' sizes allow (3 runs against 2 cannot reach p < 0.2). "
+        "Example: mjregen evolve-stats --group ff runs/ff_* --group lstm "
         "runs/lstm_* --out curves.png",
     )
     parser.add_argument("--group", nargs="+", action="append", required=True,
@@ -217,15 +230,26 @@ def _evolve_stats(args: argparse.Namespace) -> int:
                   f"generations (runs have {', '.join(map(str, stats.run_lengths))})",
                   file=sys.stderr)
     plot_panels(panels, args.out, xlabel="iteration" if quality_diversity else "generation")
+    comparisons = {column: _compare_finals(args.group, column, groups)
+                   for column, groups in panels.items()} if len(args.group) == 2 else {}
     if args.json:
         curves = {column: {label: {"runs": s.n_runs, "mean": s.mean.tolist(),
                                    "low": s.low.tolist(), "high": s.high.tolist()}
                            for label, s in groups.items()} for column, groups in panels.items()}
+        for column, comparison in comparisons.items():
+            curves[column]["comparison"] = {
+                "sizes": list(comparison.sizes), "means": list(comparison.means),
+                "u": comparison.u, "p_mann_whitney": comparison.p_mann_whitney,
+                "p_permutation": comparison.p_permutation,
+                "smallest_p": comparison.smallest_p, "exact": comparison.exact}
         print(json.dumps(curves[columns[0]] if len(columns) == 1 else curves))
     else:
         for column, groups in panels.items():
             for label, s in groups.items():
                 print(f"{label}: {s.n_runs} runs, final mean {column} {s.mean[-1]:.4f} "
                       f"[{s.low[-1]:.4f}, {s.high[-1]:.4f}]")
+        for column, comparison in comparisons.items():
+            labels = tuple(label for label, *_ in args.group)
+            print(f"{column} at the last generation all reached: {comparison.sentence(labels)}")
         print(f"wrote {args.out}")
     return 0

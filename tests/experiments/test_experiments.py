@@ -344,19 +344,22 @@ def test_report_distances_show_a_robot_at_rest_as_zero_not_as_rounding_noise():
     assert results_report.fmt_distance(float("nan")) == results_report.fmt_distance(None) == "–"
 
 
-def test_the_network_comparison_needs_two_runs_a_side_and_a_common_generation():
-    from mjregen.search.stats import CurveStats
+def test_the_network_comparison_tests_the_runs_at_their_common_generation():
+    """Exact tests of each run's best at the last generation all reached, with what n allows:
+    3 runs against 2 can never show a difference at 5 %; 8 against 8 can."""
+    from types import SimpleNamespace
 
-    def curves(mean, half, n):
-        mean = np.asarray(mean, dtype=float)
-        return CurveStats(np.arange(len(mean)), mean, mean - half, mean + half, n)
+    def runs(*curves):
+        return [SimpleNamespace(best=np.asarray(c, dtype=float)) for c in curves]
 
-    ff, lstm = curves([1, 2, 30, 40], 1.0, 3), curves([1, 5], 1.0, 3)
+    ff, lstm = runs([1, 2, 30, 40], [1, 3, 31], [1, 4, 32]), runs([1, 5], [1, 6])
     text = results_report._network_comparison(3, ff, lstm)  # at generation 1, where LSTM leads
-    assert "generation 1" in text and "LSTM higher" in text and "do not overlap" in text
-    assert "overlap (no clear" in results_report._network_comparison(3, ff, curves([1, 2.5], 1.0, 3))
-    alone = results_report._network_comparison(3, ff, curves([1, 5], 0.0, 1))
-    assert "no comparison" in alone and "higher" not in alone
+    assert "generation 1" in text and "(n=3) vs LSTM" in text and "(n=2)" in text
+    assert "no difference this n can show" in text
+    many_ff = runs(*[[0, 10 + k] for k in range(8)])
+    many_lstm = runs(*[[0, k] for k in range(8)])
+    assert "a difference at the 5 % level" in results_report._network_comparison(
+        3, many_ff, many_lstm)
 
 
 def test_the_records_of_a_results_folder_regenerate_its_report(results, tmp_path):

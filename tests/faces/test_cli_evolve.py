@@ -90,6 +90,14 @@ def test_evolve_stats(tmp_path, capsys):
     report = json.loads(capsys.readouterr().out)
     assert report["ff"]["runs"] == 2 and len(report["ff"]["mean"]) == 2
     assert png.read_bytes()[:4] == b"\x89PNG"
+    assert main(["evolve-stats", "--group", "a", runs[0], "--group", "b", runs[1], "--out",
+                 str(png), "--force"]) == 0
+    text = capsys.readouterr().out
+    assert "Mann-Whitney U" in text and "the smallest Mann-Whitney p these sizes allow: 1" in text
+    assert main(["evolve-stats", "--group", "a", runs[0], "--group", "b", runs[1], "--out",
+                 str(png), "--force", "--json"]) == 0
+    comparison = json.loads(capsys.readouterr().out)["comparison"]
+    assert comparison["sizes"] == [1, 1] and comparison["p_mann_whitney"] == 1.0
     assert main(["evolve-stats", "--group", "x", str(tmp_path / "nope"), "--out", str(png)]) == 1
 
 
