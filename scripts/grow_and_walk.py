@@ -2,9 +2,10 @@
 """Grow a soft voxel robot with a neural cellular automaton, compile it to MuJoCo, walk it.
 
 With no arguments it grows the robot of the NCA shipped in assets/nca/ (see its README),
-prints every growth step, simulates the walk (the paper's settle and measured time; a
-shipped NCA walks with the physics it was evolved in, recorded in assets/nca/manifest.json)
-and writes into the output folder (default ./grow_and_walk_out):
+prints every growth step, simulates the walk (the paper's settle and measured time, today's
+default physics, from a symmetry-broken start; --recorded-physics walks a shipped NCA with the
+physics its evolution recorded in assets/nca/manifest.json instead) and writes into the
+output folder (default ./grow_and_walk_out):
 
   robot.npy     the grown robot (mjregen robot file)
   robot.xml     its MuJoCo model (loads in plain MuJoCo)
@@ -57,6 +58,10 @@ def build_parser() -> argparse.ArgumentParser:
                         help="dimension of a random NCA (default 3); with a file it must match")
     parser.add_argument("--duration", type=float,
                         help="s of walking measured (default: the paper's, 3D 0.5, 2D 0.25)")
+    parser.add_argument("--recorded-physics", action="store_true",
+                        help="walk a shipped NCA with the physics its evolution scored it with "
+                             "(assets/nca/manifest.json; older entries: the exact start) "
+                             "instead of today's default")
     parser.add_argument("--out", type=Path, default=Path("grow_and_walk_out"),
                         help="output folder (default ./grow_and_walk_out)")
     parser.add_argument("--force", action="store_true", help="replace existing output files")
@@ -72,8 +77,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _load_source(args: argparse.Namespace) -> tuple[Robot, np.ndarray | None, str, Physics]:
     """(robot, growth states ``(T, *grid)`` or None, description of the source, `Physics`):
-    the physics is the default, or for a shipped NCA the one it was evolved and recorded
-    with (its entry in the folder's manifest.json)."""
+    the physics is the default, or with --recorded-physics, for a shipped NCA, the one it was
+    evolved and recorded with (its entry in the folder's manifest.json)."""
+    if args.recorded_physics and (args.robot is not None or args.seed is not None):
+        raise MjregenError("--recorded-physics replays a shipped NCA (--nca or the default), "
+                           "not --robot or --seed")
     if args.robot is not None:
         robot = Robot.load(args.robot)
         _check_dim(args.dim, robot.dim, args.robot)
@@ -91,7 +99,10 @@ def _load_source(args: argparse.Namespace) -> tuple[Robot, np.ndarray | None, st
         nca, _ = load_nca(path)
         _check_dim(args.dim, nca.config.dim, path)
         source = f"NCA checkpoint {path}"
-        recorded = _recorded_physics(path)
+        recorded = _recorded_physics(path) if args.recorded_physics else None
+        if args.recorded_physics and recorded is None:
+            raise MjregenError(f"--recorded-physics: {path} has no entry in a manifest.json "
+                               "beside it")
         if recorded is not None:
             physics = recorded
             source += (f" (walked with its recorded physics: {physics.pipeline.name} "

@@ -21,7 +21,7 @@ from mjregen.growth.checkpoint import load_nca
 from mjregen.physics import Physics, Scene, VoxelPipeline, migrate_physics
 from mjregen.physics.migrate import PHYSICS_FORMAT
 from mjregen.physics.simulation import simulate
-from mjregen.tasks.fitness import locomotion_fitness
+from mjregen.tasks.evaluation import RobotJob, evaluate_robot
 
 ASSETS = Path(__file__).resolve().parents[1] / "assets"
 NCA_DIR = ASSETS / "nca"
@@ -71,9 +71,11 @@ def test_shipped_nca_reproduces_its_manifest(key):
             assert counts.get(material, 0) == entry["robot"][material.name.lower()]
     evaluation = entry["evaluation"]
     physics = Physics.from_dict(evaluation["physics"])  # migrated from its format
-    result = simulate(robot, physics=physics, duration=evaluation["duration_s"])
+    # as its run scored it (entries from before the start shift: one exact start)
+    result = evaluate_robot(RobotJob(np.asarray(robot.grid), physics, evaluation["duration_s"],
+                                     evaluation.get("starts", 1), evaluation.get("start_seed", 0)))
     assert result.stable == entry["stable"]
-    fitness = locomotion_fitness(result)
+    fitness = result.fitness
     assert fitness == pytest.approx(entry["fitness"], rel=RTOL, abs=ATOL)
     if entry["distance"] is not None:
         assert result.distance == pytest.approx(entry["distance"], rel=RTOL, abs=ATOL)
@@ -85,7 +87,8 @@ def test_shipped_physics_descriptions_migrate_to_what_they_were_evaluated_with(k
     """The manifest's descriptions are format 1 (one flat scene, no "format"; contact shape
     "engine", written before beam bonds, the native stepper and the network rule): they load
     as the voxel pipeline with tendon bonds, ``mj_step`` and the stiffest-bond step, the
-    engine floor's constants and the self-collision radius, and round-trip as format 2."""
+    engine floor's constants and the self-collision radius, the exact start, and round-trip
+    as today's format."""
     if key == NO_REAL:
         assert MANIFEST["walker_3d.npz"]["placeholder"] is True
         return
@@ -100,7 +103,7 @@ def test_shipped_physics_descriptions_migrate_to_what_they_were_evaluated_with(k
     physics = Physics.from_dict(old)
     assert physics.scene == Scene(**{name: scene[name] for name in (
         "voxel_size", "gravity", "frequency", "waveform", "settle_time", "measured_time",
-        "bond_damping_ratio", "drag_ratio", "floor", "timestep_safety")})
+        "bond_damping_ratio", "drag_ratio", "floor", "timestep_safety")}, start_shift=0.0)
     assert physics.pipeline == VoxelPipeline(
         bond_element="tendons", bond_model=scene["bond_model"],
         floor_stiffness=scene["contact_stiffness"], floor_damping=scene["contact_damping"],

@@ -283,8 +283,10 @@ def test_ship_assets_matches_resimulation_and_never_overwrites(results, tmp_path
         nca, _ = load_nca(assets / "nca" / entry["file"])
         robot = nca.grow().robot()
         assert robot == Robot.load(assets / "nca" / entry["robot_file"])
-        result = simulate(robot, physics=Physics.from_dict(entry["evaluation"]["physics"]),
-                          duration=entry["evaluation"]["duration_s"])
+        evaluation = entry["evaluation"]  # as the run scored it: its starts and their seed
+        assert (evaluation["starts"], evaluation["start_seed"]) == (1, best.seed)
+        result = simulate(robot, physics=Physics.from_dict(evaluation["physics"]),
+                          duration=evaluation["duration_s"], start_seed=evaluation["start_seed"])
         assert locomotion_fitness(result) == pytest.approx(entry["fitness"], rel=1e-6, abs=1e-9)
         assert entry["robot"]["voxels"] == robot.n_voxels
         assert entry["sha256"] == ship_assets.sha256(assets / "nca" / entry["file"])
@@ -322,7 +324,7 @@ def test_results_report_writes_every_section(results, tmp_path, monkeypatch):
     assert "| Tripod (feed forward) | 99 % (728/729) | 44.5 | 1.63 (3.6 %) | 20.3 (45 %) |" in text
     assert "walker_1 (feed-forward)" in text
     # 2D: two feed-forward runs, one LSTM run: no comparison of the networks is claimed
-    assert "fewer than two runs on a side: no confidence interval" in text
+    assert "no difference this n can show" in text and "(n=2) vs LSTM" in text
     figures = out.parent / "results"
     for name in ("fitness_2d.png", "fitness_3d.png", "growth_walker_2d_ff.png",
                  "gallery_walker_2d_ff.png"):

@@ -116,18 +116,25 @@ def test_default_is_the_shipped_nca(tmp_path):
     nca, _ = load_nca(SHIPPED)
     robot = nca.grow().robot()
     assert Robot.load(tmp_path / "robot.npy") == robot
-    # it walks with the physics it was evolved in (the manifest's), not today's default
+    summary = json.loads((tmp_path / "summary.json").read_text())  # today's default physics
+    assert summary["distance"] == simulate(robot, duration=0.01).distance
+    # --recorded-physics: the physics it was evolved in (the manifest's: the exact start)
     recorded = json.loads(SHIPPED.with_name("manifest.json").read_text())[SHIPPED.name]
     physics = Physics.from_dict(recorded["evaluation"]["physics"])
-    summary = json.loads((tmp_path / "summary.json").read_text())
+    done = run_script("--duration", "0.01", "--no-video", "--out", str(tmp_path / "recorded"),
+                      "--recorded-physics")
+    assert done.returncode == 0, done.stderr
+    summary = json.loads((tmp_path / "recorded" / "summary.json").read_text())
     assert summary["bond_element"] == physics.pipeline.bond_element
     assert summary["distance"] == simulate(robot, physics=physics, duration=0.01).distance
+    assert summary["distance"] != simulate(robot, duration=0.01).distance
 
 
 @pytest.mark.parametrize("args, message", [
     (["--robot", "missing.npy"], "robot file not found: missing.npy"),
     (["--nca", "missing.npz"], "NCA checkpoint not found: missing.npz"),
     (["--nca", str(SHIPPED), "--dim", "2"], "does not match"),
+    (["--seed", "1", "--recorded-physics"], "replays a shipped NCA"),
     (["--seed", "1", "--width", "161"], "width must be even"),
 ])
 def test_bad_input_is_one_clear_error(tmp_path, args, message):
