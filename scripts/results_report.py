@@ -252,6 +252,9 @@ class Report:
             hours = f"{sum(r.elapsed for r in runs) / 3600:.2g}"
             if stored == Physics().replace(settle_time=settle):
                 default = "today's default physics (= `paper_physics()`)"
+            elif stored == Physics().replace(settle_time=settle, start_shift=0.0):
+                default = ("today's default physics from the exact start (before the start "
+                           "shift; docs/transfer.md)")
             elif stored == paper_physics().replace(settle_time=settle,
                                                          bond_element="tendons"):
                 default = "`paper_physics()` with tendon bonds (`--bonds tendons`)"
@@ -433,12 +436,14 @@ class Report:
                      "| walker (regrowth network) | similarity | robot cells matching | voxels orig./dam./regr. | "
                      "original | damaged (% of original) | regrown (% of original) | generations |",
                      "|---|---|---|---|---|---|---|---|")
+            withdrawn = self.withdrawn_walkers()
             for walker, net, folder in found:
                 r = json.loads((folder / "recovery.json").read_text())
                 run = ex.read_run(folder)
                 pct = r["percent_of_original"]
                 sim = r["similarity"]["regrown"]
-                self.add(f"| {walker} ({NAMES.get(net, net)}) | {100 * sim / r['grid_cells']:.0f} % "
+                label = f"{walker}, withdrawn" if walker in withdrawn else walker
+                self.add(f"| {label} ({NAMES.get(net, net)}) | {100 * sim / r['grid_cells']:.0f} % "
                          f"({sim}/{r['grid_cells']}; damaged {r['similarity']['damaged']}) | "
                          f"{100 * r['robot_similarity']['regrown']:.1f} % | "
                          f"{r['voxels']['original']}/{r['voxels']['damaged']}/{r['voxels']['regrown']} | "
@@ -447,6 +452,8 @@ class Report:
                          f"({percent(pct['damaged'])} %) | {fmt_distance(r['distance']['regrown'], 3)} "
                          f"({percent(pct['regrown'])} %) | {run.generations_done} × pop "
                          f"{run.config['ga']['population']} |")
+                if walker in withdrawn:
+                    continue
                 self.facts.append(
                     f"Regrowth of {walker} ({NAMES.get(net, net)}): {sim}/{r['grid_cells']} cells; "
                     f"damaged walks {percent(pct['damaged'])} % and regrown "
@@ -456,6 +463,8 @@ class Report:
                                 for _, _, f in found})
             self.add("", f"Distances in voxel lengths over {'/'.join(f'{d:g}' for d in durations)} s "
                      "of walking (unstable runs show –).", "")
+            for name, why in withdrawn.items():
+                self.add(f"{name} is withdrawn: {why}", "")
         self.paper_robot_regrowth()
         self.add(f"**The paper's Table 1** ({source}; Voxelyze, robots of its own evolutions, "
                  "regrowth GA 1000 × 1000)", "",
@@ -539,6 +548,13 @@ class Report:
         self.add("", "Start: the CA state regrown from (\"saved\": the biped's as the paper's "
                  "code saved it; \"alpha 1\": the grid alone, as only the tripod's and "
                  "multiped's grids were published). GA: population × generations run.", "")
+
+    def withdrawn_walkers(self) -> dict[str, str]:
+        """Walkers no longer shipped (assets' walkers.json "withdrawn"): name -> why."""
+        index = self.args.assets / "robots" / "walkers" / "walkers.json"
+        if not index.is_file():
+            return {}
+        return {w["name"]: w["why"] for w in json.loads(index.read_text()).get("withdrawn", [])}
 
     def self_regrowth(self) -> None:
         """One NCA that grows and regrows (`mjregen evolve --task grow-regrow`): the best of

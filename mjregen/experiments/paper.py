@@ -145,7 +145,8 @@ def scaled_ga(preset: GAConfig, population: int, generations: int) -> GAConfig:
 
 def scale_of(config: dict) -> str:
     """Name of the `SCALES` entry a run's config.json matches ("custom" if none): same
-    population, generations and settings of the evaluation (runs per condition not checked)."""
+    population, generations and settings of the evaluation (runs per condition not checked;
+    the start shift neither, so runs from before it keep their scale)."""
     task = config.get("task", {})
     if task.get("task") != "locomotion":
         return "custom"
@@ -154,7 +155,8 @@ def scale_of(config: dict) -> str:
         if (config["ga"]["population"] == scale.population[dim]
                 and config["ga"]["generations"] == scale.generations[dim]
                 and "physics" in task
-                and Physics.from_dict(task["physics"]) == scale.physics(dim)
+                and Physics.from_dict(task["physics"]).replace(start_shift=0.0)
+                == scale.physics(dim).replace(start_shift=0.0)
                 and task.get("duration") == scale.duration(dim)):
             return name
     return "custom"
