@@ -802,7 +802,7 @@ EVOLVED_WALKERS = {
     "walker_3d_ff": ROOT / "assets" / "nca" / "walker_3d_ff.npy",
     "3d_ff_seed_1": ROOT / "records" / "results" / "3d_ff" / "seed_1" / "best" / "gen_0269.npy",
     "walker_3d_lstm": ROOT / "assets" / "nca" / "walker_3d_lstm.npy",  # = walkers/walker_1
-    "walker_2": ROOT / "assets" / "robots" / "walkers" / "walker_2.npy",
+    "mirror_walker_3d": ROOT / "assets" / "robots" / "mirror_walker_3d.npy",  # once walker_2
     "walker_3": ROOT / "assets" / "robots" / "walkers" / "walker_3.npy",
 }
 WALKER_FIELDS = ["robot", "voxels", "mirror", "default",

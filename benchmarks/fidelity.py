@@ -173,6 +173,20 @@ def _walk(item: tuple[str, Physics, float]) -> tuple[str, float, float, float]:
     return name, safety, result.distance, result.heading
 
 
+STARTS = 10  # symmetry-broken starts of each paper robot in the report
+
+
+def _walk_from(item: tuple[str, int]) -> tuple[str, float, float]:
+    """(robot, distance in voxel lengths, heading in degrees) of a paper robot's walk from
+    start `item[1]` (the default physics)."""
+    from mjregen.physics.simulation import simulate
+
+    name, start = item
+    robot = Robot(np.load(ROOT / "assets" / "robots" / "paper" / f"{name}.npy"))
+    result = simulate(robot, start=start)
+    return name, result.distance, result.heading
+
+
 def spread(physics: Physics, safeties: list[float], jobs: int) -> str:
     """Markdown table: each paper robot's distance at each safety, median, range, ratio."""
     import multiprocessing
@@ -264,7 +278,7 @@ def heading_off(heading: float, name: str) -> float:
     return (heading - REFERENCE[name]["heading"] + 180.0) % 360.0 - 180.0
 
 
-def robots_table_now(now: dict, spread: list) -> str:
+def robots_table_now(now: dict, spread: list, starts: list) -> str:
     names = list(ROBOT_FILES)
     head = "| | " + " | ".join(names) + " |\n|---|" + "---|" * len(names)
     lines = [head]
@@ -286,11 +300,20 @@ def robots_table_now(now: dict, spread: list) -> str:
     row("heading, paper / mjregen (range over the safeties), degrees",
         [f"{REFERENCE[n]['heading']:+.0f} / **{now[n]['heading']:+.0f}** "
          f"({ranges[n][2]:+.0f} to {ranges[n][3]:+.0f})" for n in names])
+    row(f"over {STARTS} symmetry-broken starts: mean distance (ratio), mean heading (range), "
+        "degrees",
+        [_starts_cell(n, [(d, h) for name, d, h in starts if name == n]) for n in names])
     row("planar COM path, RMS difference",
         [f"**{now[n]['com_rms'] * 1e3:.1f} mm**" for n in names])
     row("airborne fraction, paper / mjregen",
         [f"{REFERENCE[n]['airborne']:.3f} / {now[n]['airborne']:.3f}" for n in names])
     return "\n".join(lines)
+
+
+def _starts_cell(name: str, walks: list[tuple[float, float]]) -> str:
+    distances, headings = np.array(walks).T
+    return (f"{distances.mean():.2f} (**{distances.mean() / REFERENCE[name]['distance']:.2f}**), "
+            f"**{headings.mean():+.1f}** ({headings.min():+.0f} to {headings.max():+.0f})")
 
 
 def robots_table_before(before: dict) -> str:
@@ -397,6 +420,7 @@ def write_report(reference: Path, doc: Path, jobs: int, plots: bool) -> None:
         done = pool.map(_measure, items)
         spread_runs = pool.map(_walk, [(n, Physics(), s) for n in ROBOT_FILES
                                        for s in SAFETIES])
+        start_runs = pool.map(_walk_from, [(n, k) for n in ROBOT_FILES for k in range(STARTS)])
     measured: dict[int, dict] = {}
     for index, case, result in done:
         measured.setdefault(index, {})[case] = result.measures
@@ -430,14 +454,16 @@ Before ({before['source']}):
 
 Now (`Physics()`, the default):
 
-{robots_table_now(now, spread_runs)}
+{robots_table_now(now, spread_runs, start_runs)}
 
 The distance counts from the end of the 0.05 s settle, as the paper's fitness; the heading
 is the direction of that displacement (counter-clockwise from +x); the COM path difference
-compares the two planar paths from the end of the settle, every 1 ms. The gaits are
-chaotic (a 1e-13 m change of one voxel moves a distance by ±15 %, docs/performance.md), so
-the eight time-step safeties (0.5 … 0.85 of the step's stability limit) show how much of
-a difference is integration noise.
+compares the two planar paths from the end of the settle, every 1 ms. Every walk starts
+from a symmetry-broken state (each voxel moved by 1e-4 voxel lengths, docs/transfer.md); the
+first rows are start 0's, and the {STARTS} starts' row shows how far the start moves a gait.
+The gaits are chaotic (a 1e-13 m change of one voxel moves a distance by ±15 %,
+docs/performance.md), so the eight time-step safeties (0.5 … 0.85 of the step's stability
+limit) show how much of a difference is integration noise.
 
 ## The small cases (default physics)
 
