@@ -29,6 +29,7 @@ from mjregen.physics import Physics
 from mjregen.resources import PAPER_ROBOTS, asset
 from mjregen.search.backends import SerialBackend
 from mjregen.search.ga import PRESETS, GAConfig
+from mjregen.search.run_lock import RunLock
 from mjregen.search.runs import RunSummary, run_evolution
 from mjregen.tasks.regrowth import (
     RegrowthTask,
@@ -162,6 +163,19 @@ def run_regrowth(*, source: RegrowthSource, out: str | Path, damage: str | None 
         "original": source.robot.grid.tolist(), "damaged_state": damaged.state[0].tolist(),
         "damaged_alpha": damaged.alpha[0].tolist(),
     }
+    with RunLock(out):  # the GA run and the files written after it
+        return _regrow_and_walk(task, ga, task_config, out=out, seed=seed, name=name,
+                                damaged=damaged, source=source, physics=physics,
+                                duration=duration, resume=resume, force=force,
+                                progress=progress)
+
+
+def _regrow_and_walk(task: RegrowthTask, ga: GAConfig, task_config: dict, *, out: Path,
+                     seed: int, name: str, damaged: CAState, source: RegrowthSource,
+                     physics: Physics | None, duration: float | None, resume: bool,
+                     force: bool, progress: bool) -> RegrowthRun:
+    """`run_regrowth`'s GA run and the files and walks after it (the folder held)."""
+    config = task.nca
     summary = run_evolution(task, ga, seed=seed, out=out,
                             backend=SerialBackend(), task_config=task_config, resume=resume,
                             force=force, progress=progress)

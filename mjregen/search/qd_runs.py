@@ -47,12 +47,14 @@ from mjregen.search.run_folder import (
     RUN_FORMAT,
     RunFailedError,
     RunFolderError,
+    check_agreement,
     config_hash,
     log_failures,
     prepare_folder,
     read_metrics,
     write_metrics,
 )
+from mjregen.search.run_lock import RunLock
 from mjregen.search.runs import Task
 from mjregen.tasks.descriptors import describe, descriptor_ranges
 from mjregen.tasks.evaluation import PopulationEvaluation
@@ -119,18 +121,32 @@ def run_map_elites(task: QDTask, config: MapElitesConfig, *, seed: int, out: str
     }
     shape = (task.nca.grid_size,) * task.nca.dim
     ranges = descriptor_ranges(config.descriptors, shape)
-    resumed = prepare_folder(out, run_config, resume=resume, force=force,
-                             task_class=type(task))
-    finished = None if resumed or not resume else _finished_record(out, config.iterations)
-    if finished is not None:
-        return finished
-    if resumed:
-        search = _checkpoint_load(out / "checkpoint.npz")
-    else:
-        search = MapElites(config, task.nca.genome_size, ranges=ranges, seed=int(seed),
-                           qd_score_offset=task.lowest_fitness,
-                           extra_fields={"grid": (shape, np.int8)})
+    with RunLock(out):
+        resumed = prepare_folder(out, run_config, resume=resume, force=force,
+                                 task_class=type(task))
+        started_with = config_hash(out / "config.json")
+        finished = None if resumed or not resume else _finished_record(out, config.iterations)
+        if finished is not None:
+            return finished
+        if resumed:
+            search = _checkpoint_load(out / "checkpoint.npz")
+        else:
+            search = MapElites(config, task.nca.genome_size, ranges=ranges, seed=int(seed),
+                               qd_score_offset=task.lowest_fitness,
+                               extra_fields={"grid": (shape, np.int8)})
+        return _iterations(task, search, out=out, backend=backend, seed=int(seed),
+                           ranges=ranges, started_with=started_with, progress=progress,
+                           on_iteration=on_iteration)
+
+
+def _iterations(task: QDTask, search: MapElites, *, out: Path, backend: Backend, seed: int,
+                ranges: list[tuple[float, float]], started_with: str, progress: bool,
+                on_iteration: Callable[[dict], None] | None) -> QDRunSummary:
+    """Run `search`'s remaining iterations into `out` (its metrics and checkpoint must agree:
+    `check_agreement`)."""
+    config = search.config
     rows = read_metrics(out / "metrics.csv", "iteration", search.iteration)
+    check_agreement(out, rows, search.iteration, "iteration")
     elapsed = float(rows[-1]["elapsed"]) if rows else 0.0
     last_plot = -np.inf
     bar = tqdm(total=config.iterations, initial=search.iteration, disable=not progress,
@@ -167,7 +183,7 @@ def run_map_elites(task: QDTask, config: MapElitesConfig, *, seed: int, out: str
                             out / "heatmap.png", title=out.name)
             qd_curves(rows, out / "qd.png", title=out.name)
             last_plot = time.perf_counter()
-        _checkpoint_save(out / "checkpoint.npz", search)
+        _checkpoint_save(out / "checkpoint.npz", search, started_with)
         bar.set_postfix(qd=f"{stats['qd_score']:.1f}", best=f"{stats['best']:.3f}")
         bar.update(1)
         if on_iteration is not None:
@@ -285,10 +301,11 @@ def read_archive(path: str | Path) -> StoredArchive:
                          ranges=tuple(tuple(r) for r in meta["ranges"]), nca=nca)
 
 
-def _checkpoint_save(path: Path, search: MapElites) -> None:
+def _checkpoint_save(path: Path, search: MapElites, config_sha256: str) -> None:
+    """The search's state with the hash of the config.json the run started with."""
     ribs = import_ribs()
     state = {"iteration": search.iteration, "ribs_version": ribs.__version__,
-             "config_sha256": config_hash(path.with_name("config.json"))}
+             "config_sha256": config_sha256}
     with atomic_open(path) as handle:
         np.savez(handle, format=np.array(RUN_FORMAT), state=np.array(json.dumps(state)),
                  search=np.frombuffer(search.state_bytes(), dtype=np.uint8))

@@ -3,7 +3,9 @@ and compared on resume, refusal to overwrite, metrics.csv rows, errors.log.
 
 A folder holds a run when its config.json has ``"format": RUN_FORMAT``. It is never
 overwritten without ``resume`` or ``force``, and ``force`` only ever deletes a folder that
-holds a run (never the working directory, the home folder or a parent of one).
+holds a run (never the working directory, the home folder or a parent of one). Callers hold
+the folder's `mjregen.search.run_lock.RunLock` while they prepare and write it; ``force``
+empties the folder but keeps its lock file.
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ from tqdm import tqdm
 
 from mjregen.errors import MjregenError
 from mjregen.fileio import atomic_open
+from mjregen.search.run_lock import LOCK_FILE
 from mjregen.tasks.evaluation import PopulationEvaluation
 
 RUN_FORMAT = "mjregen-run-1"
@@ -83,6 +86,11 @@ def _check_deletable(out: Path) -> None:
                              "folders; choose another --out")
 
 
+def _contents(folder: Path) -> list[Path]:
+    """Everything in `folder` but its lock file."""
+    return [path for path in folder.iterdir() if path.name != LOCK_FILE]
+
+
 def prepare_folder(out: Path, config: dict, *, resume: bool, force: bool,
                    checkpoint: str = "checkpoint.npz", task_class: type | None = None) -> bool:
     """Create or check the run folder; returns True when an earlier run is resumed (its
@@ -110,12 +118,13 @@ def prepare_folder(out: Path, config: dict, *, resume: bool, force: bool,
                 f"{out} holds a run with different settings ({', '.join(differences)}); "
                 "resume it with its own settings or use another folder")
         return (out / checkpoint).is_file()
-    if out.exists() and any(out.iterdir()):
+    if out.exists() and _contents(out):
         if not force:
             raise RunFolderError(f"{out} is not empty; pass resume to continue the run in it "
                                  "or force to delete it and start again")
         _check_deletable(out)
-        shutil.rmtree(out)
+        for path in _contents(out):
+            shutil.rmtree(path) if path.is_dir() and not path.is_symlink() else path.unlink()
     out.mkdir(parents=True, exist_ok=True)
     with atomic_open(config_path, "w") as handle:
         json.dump(config, handle, indent=2)
@@ -144,8 +153,44 @@ def read_metrics(path: Path, counter: str, done: int) -> list[dict]:
     killed run may have written one more)."""
     if not path.is_file():
         return []
-    with path.open() as handle:
-        return [row for row in csv.DictReader(handle) if int(row[counter]) < done]
+    try:
+        with path.open() as handle:
+            return [row for row in csv.DictReader(handle) if int(row[counter]) < done]
+    except (OSError, UnicodeDecodeError, ValueError, KeyError, TypeError, csv.Error) as error:
+        raise RunFolderError(f"{path} is not a readable metrics file ({type(error).__name__}: "
+                             f"{error}); restore it from a copy, or start again with force"
+                             ) from None
+
+
+def check_agreement(out: Path, rows: list[dict], done: int, counter: str) -> None:
+    """A resumed state at `done` steps (generations, iterations) and metrics.csv's `rows`
+    below it must list every step 0 .. `done` - 1 once, in order.
+
+    Raises:
+      RunFolderError: they disagree (what was found, and what to do; nothing is changed).
+    """
+    listed = [int(row[counter]) for row in rows]
+    if listed != list(range(done)):
+        shown = (f"{counter}s {listed[0]}-{listed[-1]} ({len(listed)} rows)" if listed
+                 else f"no {counter}")
+        raise RunFolderError(
+            f"{out}: metrics.csv lists {shown} but checkpoint.npz is at {counter} {done}: "
+            "the run folder disagrees with itself and nothing was changed; restore "
+            "metrics.csv from a copy, or start the run again with force")
+
+
+def check_restartable(out: Path, checkpoint: str, counter: str) -> None:
+    """A resume without `checkpoint` may only start again from nothing.
+
+    Raises:
+      RunFolderError: metrics.csv lists finished steps, which the run cannot continue from.
+    """
+    rows = read_metrics(out / "metrics.csv", counter, 1 << 62)
+    if rows:
+        raise RunFolderError(
+            f"{out}: {checkpoint} is missing but metrics.csv lists {len(rows)} finished "
+            f"{counter}s: the run cannot continue exactly from there and nothing was changed; "
+            f"restore {checkpoint}, or start the run again with force")
 
 
 def write_metrics(path: Path, columns: tuple[str, ...], rows: list[dict]) -> None:

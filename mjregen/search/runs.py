@@ -46,12 +46,15 @@ from mjregen.search.run_folder import (
     RUN_FORMAT,
     RunFailedError,
     RunFolderError,
+    check_agreement,
+    check_restartable,
     config_hash,
     log_failures,
     prepare_folder,
     read_metrics,
     write_metrics,
 )
+from mjregen.search.run_lock import RunLock
 from mjregen.tasks.evaluation import PopulationEvaluation
 
 PLOT_EVERY = 10.0  # s of wall time between redraws of fitness.png (and after the last generation)
@@ -85,11 +88,13 @@ class RunSummary:
 GENOME_ARRAYS = ("population", "parents")  # what a GA state holds its genomes in
 
 
-def _checkpoint_save(path: Path, ga: GeneticAlgorithm, best: dict) -> None:
+def _checkpoint_save(path: Path, ga: GeneticAlgorithm, best: dict, config_sha256: str) -> None:
+    """The GA state and the best so far, with the hash of the config.json the run started
+    with (an edit made during the run is refused on resume)."""
     state = ga.state_dict()
     genomes = {name: state.pop(name) for name in GENOME_ARRAYS if name in state}
     state.update(best_fitness=best["best_fitness"], best_generation=best["best_generation"],
-                 config_sha256=config_hash(path.with_name("config.json")))
+                 config_sha256=config_sha256)
     with atomic_open(path) as handle:
         np.savez(handle, format=np.array(RUN_FORMAT), best_genome=best["best_genome"],
                  state=np.array(json.dumps(state)), **genomes)
@@ -229,17 +234,38 @@ def run_evolution(
         "format": RUN_FORMAT, "task": task_config, "ga": ga_config.to_dict(), "seed": seed,
         "mjregen_version": __version__, "created": datetime.now(timezone.utc).isoformat(),
     }
-    resuming = prepare_folder(out, config, resume=resume, force=force,
-                              task_class=type(task))
-    finished = _finished_record(out, ga_config.generations) if resume and not resuming else None
-    if finished is not None:
-        return finished
-    if resuming:
-        ga, best = _checkpoint_load(out / "checkpoint.npz")
-    else:
-        ga = GeneticAlgorithm(ga_config, task.nca.genome_size, seed=seed)
-        best = {"best_fitness": -np.inf, "best_generation": -1, "best_genome": None}
+    with RunLock(out):
+        resuming = prepare_folder(out, config, resume=resume, force=force,
+                                  task_class=type(task))
+        started_with = config_hash(out / "config.json")
+        if resume and not resuming:
+            finished = _finished_record(out, ga_config.generations)
+            if finished is not None:
+                return finished
+            check_restartable(out, "checkpoint.npz", "generation")
+        if resuming:
+            ga, best = _checkpoint_load(out / "checkpoint.npz")
+        else:
+            ga = GeneticAlgorithm(ga_config, task.nca.genome_size, seed=seed)
+            best = {"best_fitness": -np.inf, "best_generation": -1, "best_genome": None}
+        return _generations(task, ga, best, out=out, backend=backend, seed=seed,
+                            started_with=started_with, progress=progress,
+                            on_generation=on_generation)
+
+
+def _generations(task: Task, ga: GeneticAlgorithm, best: dict, *, out: Path, backend: Backend,
+                 seed: int, started_with: str, progress: bool,
+                 on_generation: Callable[[dict], None] | None) -> RunSummary:
+    """Run `ga`'s remaining generations into `out` (its metrics, best/ and checkpoint must
+    agree on the generation: `check_agreement`)."""
+    ga_config = ga.config
     rows = read_metrics(out / "metrics.csv", "generation", ga.generation)
+    check_agreement(out, rows, ga.generation, "generation")
+    last = out / "best" / f"gen_{ga.generation - 1:04d}.npz"
+    if ga.generation and not last.is_file():
+        raise RunFolderError(f"{out}: checkpoint.npz is at generation {ga.generation} but {last} "
+                             "is missing: restore it from a copy, or start the run again with "
+                             "force")
     elapsed = float(rows[-1]["elapsed"]) if rows else 0.0
     (out / "best").mkdir(exist_ok=True)
     last_plot = -np.inf
@@ -273,7 +299,7 @@ def run_evolution(
         if time.perf_counter() - last_plot > PLOT_EVERY or ga.generation == ga_config.generations:
             plot_fitness(rows, out / "fitness.png", title=out.name)
             last_plot = time.perf_counter()
-        _checkpoint_save(out / "checkpoint.npz", ga, best)
+        _checkpoint_save(out / "checkpoint.npz", ga, best, started_with)
         bar.set_postfix(best=f"{fitness.max():.3f}", overall=f"{best['best_fitness']:.3f}")
         bar.update(1)
         if on_generation is not None:

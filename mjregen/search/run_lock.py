@@ -1,0 +1,110 @@
+"""One writer per run folder: an OS file lock held for the life of a run.
+
+`RunLock(folder)` takes an exclusive, non-blocking `fcntl.flock` on ``folder/.mjregen.lock``
+(creating the folder and the file) and writes the holder's process id, host and start time
+into it. A run in another process is refused with that holder's description (within one
+process the lock is re-entrant: a regrowth run holds its folder around the GA run it writes
+there); the lock goes with its process, so the lock of a process that died
+(killed, crashed, a machine that rebooted) is taken over by the next run without a word. The
+lock file itself is never deleted, not even by ``force``: a folder's lock must outlive its
+contents (a folder the lock created and nothing else filled is removed again on release, so a
+refused run leaves nothing behind). POSIX only (Linux, macOS), like the rest of mjregen's process handling.
+"""
+
+from __future__ import annotations
+
+import fcntl
+import json
+import os
+import socket
+from datetime import datetime, timezone
+from pathlib import Path
+
+from mjregen.errors import MjregenError
+
+LOCK_FILE = ".mjregen.lock"
+_HELD: dict[Path, int] = {}  # folders this process holds -> how many RunLocks hold each
+
+
+class RunFolderBusyError(MjregenError, RuntimeError):
+    """Another live process holds the run folder."""
+
+
+class RunLock:
+    """An exclusive lock on a run folder (module docstring); a context manager.
+
+    Raises (on entering):
+      RunFolderBusyError: another process (or another run of this one) holds the folder.
+      MjregenError: the folder or its lock file cannot be created or opened.
+    """
+
+    def __init__(self, folder: str | os.PathLike) -> None:
+        self.folder = Path(folder)
+        self.path = self.folder / LOCK_FILE
+        self._handle = None
+        self._nested = False
+        self._created = False
+
+    def __enter__(self) -> RunLock:
+        self.acquire()
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.release()
+
+    def acquire(self) -> None:
+        """Take the lock and record this process as its holder."""
+        try:
+            self._created = not self.folder.exists()
+            self.folder.mkdir(parents=True, exist_ok=True)
+            key = self.folder.resolve()
+            if key in _HELD:
+                _HELD[key] += 1
+                self._nested = True
+                return
+            handle = open(self.path, "a+")
+        except OSError as error:
+            raise MjregenError(f"cannot lock the run folder {self.folder}: {error.strerror} "
+                               f"({error.filename or self.path})") from None
+        try:
+            fcntl.flock(handle.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            handle.seek(0)
+            holder = handle.read().strip()
+            handle.close()
+            raise RunFolderBusyError(
+                f"{self.folder} is in use by {describe_holder(holder)}: one run folder takes "
+                "one run at a time; wait for it to finish, stop it, or choose another folder"
+            ) from None
+        handle.seek(0)
+        handle.truncate()
+        handle.write(json.dumps({"pid": os.getpid(), "host": socket.gethostname(),
+                                 "started": datetime.now(timezone.utc).isoformat()}))
+        handle.flush()
+        self._handle = handle
+        _HELD[key] = 1
+
+    def release(self) -> None:
+        """Give the lock up (the file stays)."""
+        key = self.folder.resolve()
+        if self._nested:
+            _HELD[key] -= 1
+            self._nested = False
+        elif self._handle is not None:
+            del _HELD[key]
+            fcntl.flock(self._handle.fileno(), fcntl.LOCK_UN)
+            self._handle.close()
+            self._handle = None
+            if self._created and [p.name for p in self.folder.iterdir()] == [LOCK_FILE]:
+                self.path.unlink()
+                self.folder.rmdir()
+
+
+def describe_holder(text: str) -> str:
+    """The holder a lock file records, for people."""
+    try:
+        holder = json.loads(text)
+        return (f"process {holder['pid']} on {holder['host']}, started "
+                f"{holder['started']}")
+    except (ValueError, KeyError, TypeError):
+        return "another process"
