@@ -87,8 +87,10 @@ def _check_deletable(out: Path) -> None:
 
 
 def _contents(folder: Path) -> list[Path]:
-    """Everything in `folder` but its lock file."""
-    return [path for path in folder.iterdir() if path.name != LOCK_FILE]
+    """Everything in `folder` but its lock file and what a run killed while it wrote its
+    first config.json left (the atomic write's temporary file): such a folder holds nothing."""
+    return [path for path in folder.iterdir()
+            if path.name != LOCK_FILE and not path.name.startswith(".config.json.")]
 
 
 def prepare_folder(out: Path, config: dict, *, resume: bool, force: bool,
@@ -180,13 +182,15 @@ def check_agreement(out: Path, rows: list[dict], done: int, counter: str) -> Non
 
 
 def check_restartable(out: Path, checkpoint: str, counter: str) -> None:
-    """A resume without `checkpoint` may only start again from nothing.
+    """A resume without `checkpoint` may only start again from nothing: allowed when
+    metrics.csv lists at most the first step (a run killed between that step's metrics and
+    its first checkpoint; the step is deterministic and is done again).
 
     Raises:
-      RunFolderError: metrics.csv lists finished steps, which the run cannot continue from.
+      RunFolderError: metrics.csv lists later steps, which the run cannot continue from.
     """
     rows = read_metrics(out / "metrics.csv", counter, 1 << 62)
-    if rows:
+    if len(rows) > 1:
         raise RunFolderError(
             f"{out}: {checkpoint} is missing but metrics.csv lists {len(rows)} finished "
             f"{counter}s: the run cannot continue exactly from there and nothing was changed; "
