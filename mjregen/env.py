@@ -186,7 +186,8 @@ def load(robot: Robot, *, physics: Physics | None = None, duration: float | None
       start_seed: every episode starts from the robot's start 0 of this seed (`simulate`'s
         start: every voxel moved by the scene's ``start_shift``), as `simulate` does.
     Raises:
-      ValueError: non-positive `duration` or `control_timestep`.
+      ValueError: non-positive `duration` or `control_timestep`, or a control step longer
+        than the episode.
       CompileError: empty robot, or a `start_seed` that is not a whole number >= 0.
       MjregenError: the pure-MuJoCo pipeline (its muscles need a Python driver).
     """
@@ -204,6 +205,9 @@ def load(robot: Robot, *, physics: Physics | None = None, duration: float | None
     for name, value in (("duration", duration), ("control_timestep", control_timestep)):
         if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
             raise ValueError(f"{name} must be a positive number of seconds, got {value!r}")
+    if control_timestep > duration:
+        raise ValueError(f"control_timestep {control_timestep:g} s exceeds the episode's "
+                         f"duration {duration:g} s: an episode is at least one control step")
     dt = compiled.timestep
     n_sub_steps = max(1, round(control_timestep / dt))
     n_steps = max(1, round(duration / (n_sub_steps * dt)))

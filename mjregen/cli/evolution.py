@@ -215,6 +215,11 @@ def _evolve_stats(args: argparse.Namespace) -> int:
     for label, *runs in args.group:
         if not runs:
             raise MjregenError(f"group {label!r} names no run folders")
+    labels = [label for label, *_ in args.group]
+    repeated = sorted({label for label in labels if labels.count(label) > 1})
+    if repeated:
+        raise MjregenError(f"group label(s) {', '.join(map(repr, repeated))} given more than "
+                           "once: each --group needs its own label")
     kinds = {label: run_kind(runs[0]) for label, *runs in args.group}
     if len(set(kinds.values())) > 1:
         raise MjregenError("the groups evolved for different tasks, whose fitnesses do not "

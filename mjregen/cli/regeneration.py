@@ -58,6 +58,16 @@ def _regen(args: argparse.Namespace) -> int:
 
     physics = physics_from_args(args)  # the walking settings, checked before the GA runs
     if args.replay is not None:
+        given = [flag for flag, value in (
+            ("--out", args.out), ("--damage", args.damage), ("--net", args.net),
+            ("--preset", args.preset), ("--pop", args.pop), ("--gens", args.gens),
+            ("--truncation", args.truncation), ("--elites", args.elites),
+            ("--sigma", args.sigma), ("--resume", args.resume or None),
+            ("--force", args.force or None), ("--no-video", args.no_video or None))
+            if value is not None]
+        if given:
+            raise MjregenError(f"--replay regrows and walks what the NCA file records, with no "
+                               f"run folder or GA: {', '.join(given)} would be ignored")
         return _replay(args, physics)
     if args.out is None:
         raise MjregenError("--out is required (the run folder), except with --replay")

@@ -149,11 +149,20 @@ def run_regrowth(*, source: RegrowthSource, out: str | Path, damage: str | None 
       resume, force, progress: as for `mjregen.search.runs.run_evolution`.
     Raises:
       mjregen.errors.InvalidGridError: an unreadable damage condition.
+      MjregenError: an empty robot, or damage that removes no voxel or every voxel.
       mjregen.search.runs.RunFolderError: `out` holds another run or nothing to resume.
     """
     out, ga = Path(out), ga or PRESETS["regen"]
     name = name or Path(source.label).stem
+    if source.robot.is_empty:
+        raise MjregenError(f"{source.label}: an empty robot has nothing to damage or regrow")
     damaged = paper_cut(source.state) if damage is None else cut_half_space(source.state, damage)
+    left = damaged_robot(damaged)
+    if left.is_empty or left.n_voxels == source.robot.n_voxels:
+        what = "removes every voxel (nothing is left to regrow from)" if left.is_empty else \
+            "removes no voxel of the robot (there is nothing to regrow)"
+        raise MjregenError(f"the damage {damage or 'paper cut'!r} {what}; choose another "
+                           "--damage")
     config = NCAConfig(dim=source.robot.dim, kind=net)
     task = RegrowthTask(nca=config, original=np.asarray(source.robot.grid),
                         damaged=CAState(damaged.state, damaged.alpha, None))

@@ -99,6 +99,9 @@ def test_evolve_stats(tmp_path, capsys):
     comparison = json.loads(capsys.readouterr().out)["comparison"]
     assert comparison["sizes"] == [1, 1] and comparison["p_mann_whitney"] == 1.0
     assert main(["evolve-stats", "--group", "x", str(tmp_path / "nope"), "--out", str(png)]) == 1
+    assert main(["evolve-stats", "--group", "a", runs[0], "--group", "a", runs[1], "--out",
+                 str(png), "--force"]) == 1
+    assert "given more than once" in capsys.readouterr().err
 
 
 def test_grow_regrow_runs_resume_and_refuse_other_settings(tmp_path, capsys):

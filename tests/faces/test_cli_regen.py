@@ -53,3 +53,25 @@ def test_regen_replay_refuses_an_nca_that_regrows_nothing(capsys):
     assert "not a regrowth NCA" in capsys.readouterr().err
     assert main(["regen", "--paper", "tripod"]) == 1
     assert "--out is required" in capsys.readouterr().err
+
+
+def test_regen_replay_refuses_flags_it_would_ignore(capsys, tmp_path):
+    for flags in (["--out", str(tmp_path / "x")], ["--damage", "x < 2"], ["--pop", "8"],
+                  ["--force"]):
+        assert main(["regen", "--replay", "assets/regen/tripod_ff.npz", *flags]) == 1
+        assert "would be ignored" in capsys.readouterr().err
+    assert not (tmp_path / "x").exists()
+
+
+def test_regen_refuses_damage_that_removes_nothing_or_everything(capsys, tmp_path):
+    common = ["regen", "--pop", "8", "--gens", "1", "--truncation", "4", "--elites", "2",
+              "--no-video", "--quiet"]
+    for damage, message in (("x > 6", "removes no voxel"), ("z < 7", "removes every voxel")):
+        out = tmp_path / damage.replace(" ", "")
+        assert main([*common, "--robot", WALKER_2D, "--damage", damage, "--out", str(out)]) == 1
+        assert message in capsys.readouterr().err
+        assert not out.exists()
+    empty = tmp_path / "empty.npy"
+    Robot(np.zeros((7, 7), dtype=np.int8)).save(empty)
+    assert main([*common, "--robot", str(empty), "--out", str(tmp_path / "e")]) == 1
+    assert "empty robot" in capsys.readouterr().err

@@ -146,6 +146,11 @@ def test_bad_settings_are_rejected(kwargs):
         load(tiny_walker(), **kwargs)
 
 
+def test_a_control_step_longer_than_the_episode_is_refused():
+    with pytest.raises(ValueError, match="exceeds the episode's duration"):
+        load(tiny_walker(), duration=0.01, control_timestep=0.02)
+
+
 def test_pure_mujoco_pipeline_is_refused():
     from mjregen.errors import MjregenError
 
