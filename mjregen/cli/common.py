@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import json
 import math
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -160,3 +161,19 @@ def physics_from_args(args: argparse.Namespace):
             except ValueError as error:
                 raise MjregenError(f"{flag}: {error}") from None
     return physics
+
+
+def print_json(value: object) -> None:
+    """Print `value` as valid JSON: NaN and infinities (an unstable run's numbers, a best
+    fitness before any) become null, in lists and dicts too."""
+    print(json.dumps(_finite_or_none(value), allow_nan=False))
+
+
+def _finite_or_none(value: object) -> object:
+    if isinstance(value, dict):
+        return {k: _finite_or_none(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite_or_none(v) for v in value]
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value

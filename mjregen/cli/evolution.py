@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import sys
 from pathlib import Path
@@ -14,6 +13,7 @@ from mjregen.cli.common import (
     add_run_folder_arguments,
     ga_config,
     physics_from_args,
+    print_json,
     seed,
     starts_count,
     workers,
@@ -82,6 +82,9 @@ def _evolve(args: argparse.Namespace) -> int:
     from mjregen.search.backends import make_backend
     from mjregen.tasks.grow_regrow import GrowRegrowTask
 
+    if args.backend == "serial" and args.workers is not None:
+        raise MjregenError("--workers sets the process, thread or ray backend's workers; "
+                           "--backend serial runs one evaluation at a time")
     if optimizer(args) == "map-elites":
         if args.task not in (None, "locomotion") or args.cut or args.cell_cost is not None:
             raise MjregenError("MAP-Elites searches the locomotion task only")
@@ -114,9 +117,9 @@ def _evolve(args: argparse.Namespace) -> int:
         else:
             summary = evolve_grow_regrow(backend=backend, **regrowth, **common)
     if args.json:
-        print(json.dumps({"out": str(summary.out), "generations": summary.generations,
+        print_json({"out": str(summary.out), "generations": summary.generations,
                           "best_fitness": summary.best_fitness,
-                          "best_generation": summary.best_generation}))
+                          "best_generation": summary.best_generation})
     else:
         print(f"best fitness {summary.best_fitness:.4f} in generation {summary.best_generation}; "
               f"run folder {summary.out}")
@@ -208,7 +211,12 @@ def add_evolve_stats(subparsers: argparse._SubParsersAction) -> None:
 
 def _evolve_stats(args: argparse.Namespace) -> int:
     from mjregen.errors import OutputExistsError
-    from mjregen.search.stats import group_stats, is_map_elites_run, plot_panels, run_kind
+    from mjregen.search.stats import (
+        group_stats,
+        is_map_elites_run,
+        plot_panels,
+        run_kind,
+    )
 
     if args.out.exists() and not args.force:
         raise OutputExistsError(args.out)
@@ -247,7 +255,7 @@ def _evolve_stats(args: argparse.Namespace) -> int:
                 "u": comparison.u, "p_mann_whitney": comparison.p_mann_whitney,
                 "p_permutation": comparison.p_permutation,
                 "smallest_p": comparison.smallest_p, "exact": comparison.exact}
-        print(json.dumps(curves[columns[0]] if len(columns) == 1 else curves))
+        print_json(curves[columns[0]] if len(columns) == 1 else curves)
     else:
         for column, groups in panels.items():
             for label, s in groups.items():

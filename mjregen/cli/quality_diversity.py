@@ -7,7 +7,7 @@ import json
 import sys
 from pathlib import Path
 
-from mjregen.cli.common import physics_from_args
+from mjregen.cli.common import physics_from_args, print_json
 from mjregen.errors import MjregenError
 
 GA_ONLY = ("preset", "truncation", "elites")  # GA settings MAP-Elites has no use for
@@ -128,7 +128,7 @@ def run_map_elites_command(args: argparse.Namespace) -> int:
               "coverage": summary.coverage, "elites": summary.elites,
               "gallery": None if gallery is None else str(gallery)}
     if args.json:
-        print(json.dumps(result))
+        print_json(result)
     else:
         print(f"best fitness {summary.best_fitness:.4f}, QD score {summary.qd_score:.1f}, "
               f"{summary.elites} elites ({summary.coverage:.1%} of the cells); run folder "
@@ -148,6 +148,9 @@ def _new_run(args: argparse.Namespace) -> tuple:
     cells = args.cells or default_cells(descriptors, (nca.grid_size,) * dim)
     if len(cells) == 1:
         cells = cells * len(descriptors)
+    if args.line_sigma is not None and (args.emitter or "gaussian") != "iso-line":
+        raise MjregenError("--line-sigma sets the iso+line emitter's line step; add "
+                           "--emitter iso-line")
     try:
         config = MapElitesConfig(
             iterations=300 if args.gens is None else args.gens,

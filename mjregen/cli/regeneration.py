@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
 from mjregen.cli.common import (
@@ -12,6 +11,7 @@ from mjregen.cli.common import (
     add_run_folder_arguments,
     ga_config,
     physics_from_args,
+    print_json,
     seed,
 )
 from mjregen.errors import MjregenError
@@ -63,7 +63,7 @@ def _regen(args: argparse.Namespace) -> int:
             ("--preset", args.preset), ("--pop", args.pop), ("--gens", args.gens),
             ("--truncation", args.truncation), ("--elites", args.elites),
             ("--sigma", args.sigma), ("--resume", args.resume or None),
-            ("--force", args.force or None), ("--no-video", args.no_video or None))
+            ("--force", args.force or None))
             if value is not None]
         if given:
             raise MjregenError(f"--replay regrows and walks what the NCA file records, with no "
@@ -81,7 +81,7 @@ def _regen(args: argparse.Namespace) -> int:
         walk_videos(run.robots, args.out, physics=physics, duration=args.duration,
                     progress=not args.quiet)
     if args.json:
-        print(json.dumps(run.report.to_dict()))
+        print_json(run.report.to_dict())
     else:
         print(run.report.to_markdown(Path(source.label).stem))
         print(f"run folder {args.out}")
@@ -94,11 +94,11 @@ def _replay(args: argparse.Namespace, physics) -> int:
     replay = replay_regrowth(args.replay, physics=physics, duration=args.duration)
     distance = replay.report.distance
     if args.json:
-        print(json.dumps({"nca": str(args.replay), "robot": replay.metadata.get("robot"),
+        print_json({"nca": str(args.replay), "robot": replay.metadata.get("robot"),
                           "damage": replay.metadata.get("damage"),
                           "similarity": replay.similarity,
                           "recorded_similarity": replay.metadata.get("similarity"),
-                          "distance": distance, "report": replay.report.to_dict()}))
+                          "distance": distance, "report": replay.report.to_dict()})
     else:
         print(replay.report.to_markdown(str(replay.metadata.get("robot", "robot"))))
     return 0

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import os
 from pathlib import Path
@@ -16,6 +15,7 @@ from mjregen.cli.common import (
     material_counts,
     physics_from_args,
     positive,
+    print_json,
     seed,
     starts_count,
     workers,
@@ -34,8 +34,10 @@ def add_grow(subparsers: argparse._SubParsersAction) -> None:
     source = parser.add_mutually_exclusive_group()
     source.add_argument("--checkpoint", type=Path, help="NCA checkpoint (.npz)")
     source.add_argument("--seed", type=seed, default=0, help="seed of a random NCA (default 0)")
-    parser.add_argument("--dim", type=int, choices=(2, 3), default=3, help="random NCA: 2D or 3D")
-    parser.add_argument("--net", choices=("ff", "lstm"), default="ff", help="random NCA: network")
+    parser.add_argument("--dim", type=int, choices=(2, 3),
+                        help="random NCA: 2D or 3D (default 3; a checkpoint has its own)")
+    parser.add_argument("--net", choices=("ff", "lstm"),
+                        help="random NCA: network (default ff; a checkpoint has its own)")
     parser.add_argument("--steps", type=int, help="growth steps (default: the NCA's, 10)")
     parser.add_argument("--show-steps", action="store_true", help="print the grid after every step")
     parser.add_argument("--out", type=Path, help="save the grown robot to this .npy file")
@@ -53,22 +55,28 @@ def _grow(args: argparse.Namespace) -> int:
     if args.checkpoint is not None:
         nca, _ = load_nca(args.checkpoint)
         source = str(args.checkpoint)
+        given = {"--dim": (args.dim, nca.config.dim), "--net": (args.net, nca.config.kind)}
+        clash = [f"{flag} {mine} (the checkpoint's: {its})"
+                 for flag, (mine, its) in given.items() if mine is not None and mine != its]
+        if clash:
+            raise MjregenError(f"{args.checkpoint} is its own network: {', '.join(clash)}")
     else:
-        nca = NCA.random(NCAConfig(dim=args.dim, kind=args.net), seed=args.seed)
-        source = f"random {args.dim}D {args.net} NCA, seed {args.seed}"
+        dim, net = args.dim or 3, args.net or "ff"
+        nca = NCA.random(NCAConfig(dim=dim, kind=net), seed=args.seed)
+        source = f"random {dim}D {net} NCA, seed {args.seed}"
     growth = nca.grow(steps=args.steps)
     robot = growth.robot()
     steps = [Robot(state) for state in growth.states[0]]
     if args.out is not None:
         robot.save(args.out, overwrite=args.force)
     if args.json:
-        print(json.dumps({
+        print_json({
             "source": source,
             "config": nca.config.to_dict(),
             "steps": [{"step": i, "voxels": s.n_voxels, "materials": material_counts(s)} for i, s in enumerate(steps)],
             "robot": {"voxels": robot.n_voxels, "materials": material_counts(robot), "grid": robot.grid.tolist()},
             "out": None if args.out is None else str(args.out),
-        }))
+        })
         return 0
     print(f"growing: {source}")
     for i, state in enumerate(steps):
@@ -96,12 +104,12 @@ def add_show(subparsers: argparse._SubParsersAction) -> None:
 def _show(args: argparse.Namespace) -> int:
     robot = Robot.load(args.robot)
     if args.json:
-        print(json.dumps({
+        print_json({
             "shape": list(robot.shape),
             "voxels": robot.n_voxels,
             "materials": material_counts(robot),
             "grid": np.asarray(robot.grid).tolist(),
-        }))
+        })
     else:
         print(robot.to_text())
     return 0
@@ -188,7 +196,7 @@ def _walk(args: argparse.Namespace) -> int:
             "depends_on_start": checked.depends_on_start,
             "mirror_axes": list(checked.mirror_axes)}
     if args.json:
-        print(json.dumps(_finite_or_none(report)))
+        print_json(report)
         return 0
     verdict = "stable" if result.stable else f"UNSTABLE ({result.reason})"
     dx, dy = result.displacement
@@ -265,16 +273,6 @@ def _starts_text(starts) -> str:
         lines.append(f"the shifted starts keep less than {KEPT:.0%} of the distance: this robot "
                      "walks partly by its exact start")
     return "\n".join(lines)
-
-
-def _finite_or_none(value):
-    """`value` for JSON: NaN (an unstable run's numbers) becomes null, in lists and
-    dicts too."""
-    if isinstance(value, dict):
-        return {k: _finite_or_none(v) for k, v in value.items()}
-    if isinstance(value, list):
-        return [_finite_or_none(v) for v in value]
-    return None if isinstance(value, float) and np.isnan(value) else value
 
 
 def add_export(subparsers: argparse._SubParsersAction) -> None:

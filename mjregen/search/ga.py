@@ -33,8 +33,10 @@ class GAConfig:
             value = getattr(self, name)
             if not isinstance(value, (int, np.integer)) or value < 1:
                 raise ValueError(f"GA {name} must be a positive integer, got {value!r}")
-        if not 0 <= self.elites <= self.population:
-            raise ValueError(f"GA elites must be in 0..population ({self.population}), got {self.elites}")
+        if not 0 <= self.elites < self.population:
+            raise ValueError(
+                f"GA elites must be in 0..{self.population - 1} (fewer than the population, "
+                f"{self.population}, or no child is ever mutated), got {self.elites}")
         if self.truncation > self.population:
             raise ValueError(
                 f"GA truncation ({self.truncation}) cannot exceed the population ({self.population})"

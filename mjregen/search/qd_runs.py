@@ -42,7 +42,12 @@ from mjregen.growth.checkpoint import save_nca
 from mjregen.growth.nca import NCA, NCAConfig
 from mjregen.search.archive_plots import archive_heatmap, qd_curves
 from mjregen.search.backends import Backend
-from mjregen.search.map_elites import ArchiveSnapshot, MapElites, MapElitesConfig, import_ribs
+from mjregen.search.map_elites import (
+    ArchiveSnapshot,
+    MapElites,
+    MapElitesConfig,
+    import_ribs,
+)
 from mjregen.search.run_folder import (
     RUN_FORMAT,
     RunFailedError,

@@ -22,7 +22,12 @@ import numpy as np
 from mjregen.growth.nca import NCAConfig, grow
 from mjregen.physics import Physics
 from mjregen.physics.start_state import check_start
-from mjregen.tasks.evaluation import PopulationEvaluation, RobotJob, evaluate_robot, expected_cost
+from mjregen.tasks.evaluation import (
+    PopulationEvaluation,
+    RobotJob,
+    evaluate_robot,
+    expected_cost,
+)
 from mjregen.tasks.fitness import EMPTY_FITNESS, UNSTABLE_FITNESS
 from mjregen.tasks.starts import DEFAULT_STARTS
 

@@ -33,6 +33,11 @@ def test_grow_from_checkpoint_prints_steps_and_robot(tmp_path, capsys):
     text = capsys.readouterr().out
     assert "step  3:" in text and "step  4:" not in text
     assert nca.grow(steps=3).robot().to_text() in text
+    assert main(["grow", "--checkpoint", str(path), "--dim", "3", "--net", "ff"]) == 0  # agree
+    capsys.readouterr()
+    assert main(["grow", "--checkpoint", str(path), "--dim", "2", "--net", "lstm"]) == 1
+    assert "--dim 2 (the checkpoint's: 3), --net lstm (the checkpoint's: ff)" in \
+        capsys.readouterr().err
 
 
 def test_grow_never_overwrites_without_force(tmp_path, capsys):

@@ -219,3 +219,29 @@ def test_the_environment_refuses_an_empty_robot_like_the_commands():
 
     with pytest.raises(CompileError, match="empty robot"):
         load(Robot(EMPTY_3D))
+
+
+@pytest.mark.parametrize("flags, message", [
+    (["--backend", "serial", "--workers", "2"], "--backend serial runs one evaluation"),
+    (["--optimizer", "map-elites", "--line-sigma", "0.3"], "add --emitter iso-line"),
+    (["--pop", "1"], "fewer than the population"),
+    (["--pop", "4", "--elites", "4"], "no child is ever mutated"),
+])
+def test_evolve_refuses_settings_it_would_ignore_or_that_never_mutate(tmp_path, capsys, flags,
+                                                                      message):
+    out = tmp_path / "run"
+    assert main(["evolve", "--dim", "2", "--gens", "1", "--quiet", "--out", str(out),
+                 *flags]) == 1
+    assert message in one_line_error(capsys)
+    assert not out.exists()
+
+
+def test_json_output_is_valid_json_without_finite_numbers(capsys):
+    """NaN and infinities (an unstable walk, a best fitness before any) print as null."""
+    import json
+
+    from mjregen.cli.common import print_json
+
+    print_json({"best": float("-inf"), "walks": [1.5, float("nan")], "pair": (float("inf"), 2)})
+    assert json.loads(capsys.readouterr().out) == {"best": None, "walks": [1.5, None],
+                                                   "pair": [None, 2]}

@@ -7,7 +7,6 @@ import signal
 import time
 
 import numpy as np
-import pytest
 from test_runs import GA, SphereTask, metrics  # the same tiny task
 
 from mjregen.growth.checkpoint import load_nca

@@ -8,13 +8,12 @@ import sys
 import textwrap
 
 import pytest
+from test_runs import GA, Killed, SphereTask, metrics, run  # the same tiny run
 
 from mjregen.search.backends import SerialBackend
 from mjregen.search.run_folder import RunFolderError
 from mjregen.search.run_lock import LOCK_FILE, RunFolderBusyError, RunLock
 from mjregen.search.runs import run_evolution
-
-from test_runs import GA, Killed, SphereTask, metrics, run  # the same tiny run
 
 HOLD = textwrap.dedent("""
     import sys, time
