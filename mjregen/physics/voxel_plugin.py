@@ -20,11 +20,13 @@ checked against `ATTRIBUTES`, the keys `mjregen.physics.mjcf` writes.
 from __future__ import annotations
 
 import ctypes
+import hashlib
 import os
 import shutil
 import subprocess
 import tempfile
 import threading
+import time
 from pathlib import Path
 
 import mujoco
@@ -33,6 +35,7 @@ from mjregen.errors import MjregenError
 from mjregen.plugin_cache import FLAGS, PLUGIN_FILES, PLUGIN_SOURCES, library_path, mujoco_libraries
 
 PLUGIN_NAME = "mjregen.voxels"
+STALE_BUILD_S = 3600.0  # a build folder left this long ago was a build killed halfway
 SOURCES = tuple(PLUGIN_SOURCES / name for name in PLUGIN_FILES if name.endswith(".c"))
 ATTRIBUTES = (
     "dim", "voxel_size", "voxels", "frequency", "start", "waveform", "drive", "phase", "strain",
@@ -69,15 +72,33 @@ def _mujoco_library() -> Path:
     return candidates[0]
 
 
+def _digest_file(path: Path) -> Path:
+    """The file beside a built library that holds its sha256."""
+    return path.with_name(path.name + ".sha256")
+
+
+def _intact(path: Path) -> bool:
+    """`path` is a library this package built, whole: its bytes match the digest written
+    beside it when it was built (a truncated or damaged file, or one without a digest, is
+    built again rather than loaded: loading it could crash the process)."""
+    try:
+        recorded = _digest_file(path).read_text().strip()
+        return recorded == hashlib.sha256(path.read_bytes()).hexdigest()
+    except OSError:
+        return False
+
+
 def plugin_library() -> Path:
     """Path of the shared library that registers the ``mjregen.voxels`` MuJoCo plugin,
-    compiled on first call (atomic: concurrent builders agree).
+    compiled on first call, and again when the cached file is not whole (atomic: concurrent
+    builders agree).
 
     Raises:
-      NativeBuildError: no C compiler, no MuJoCo headers, or the compiler failed.
+      NativeBuildError: no C compiler, no MuJoCo headers, the compiler failed, or the cache
+        folder cannot be written.
     """
     path = library_path()
-    if path.exists():
+    if _intact(path):
         return path
     compiler = _compiler()
     if compiler is None:
@@ -89,7 +110,21 @@ def plugin_library() -> Path:
         raise NativeBuildError(f"MuJoCo's C headers are missing under {include}; install a "
                                "mujoco wheel that ships them")
     libmujoco = _mujoco_library()
-    path.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        return _build(compiler, include, libmujoco, path)
+    except OSError as error:
+        raise NativeBuildError(
+            f"the voxel plugin's cache folder {path.parent} cannot be written "
+            f"({error.strerror or error}); set $MJREGEN_CACHE to a writable folder") from None
+
+
+def _build(compiler: str, include: Path, libmujoco: Path, path: Path) -> Path:
+    """Compile the plugin into `path`, with its digest beside it (each replaced atomically;
+    a build killed halfway leaves only its temporary folder, removed on the next build)."""
+    for debris in path.parent.glob("tmp*"):
+        if debris.is_dir() and time.time() - debris.stat().st_mtime > STALE_BUILD_S:
+            shutil.rmtree(debris, ignore_errors=True)
     with tempfile.TemporaryDirectory(dir=path.parent) as tmp:
         out = Path(tmp) / path.name
         command = [compiler, *FLAGS, f"-I{include}", *map(str, SOURCES), "-o", str(out),
@@ -103,7 +138,10 @@ def plugin_library() -> Path:
         if done.returncode != 0:
             raise NativeBuildError(f"building the voxel plugin failed:\n{' '.join(command)}"
                                    f"\n{done.stderr.strip()}")
+        digest = Path(tmp) / _digest_file(path).name
+        digest.write_text(hashlib.sha256(out.read_bytes()).hexdigest())
         os.replace(out, path)
+        os.replace(digest, _digest_file(path))
     return path
 
 

@@ -193,3 +193,50 @@ def test_a_compiler_without_march_native_builds_the_generic_library(tmp_path, mo
     monkeypatch.setenv("MJREGEN_CACHE", str(tmp_path / "cache"))
     path = voxel_plugin.plugin_library()
     assert path.is_file() and path.parent == tmp_path / "cache"
+
+
+LOAD_AND_WALK = ("import sys; from mjregen.grid import Robot; "
+                 "from mjregen.physics.simulation import simulate; "
+                 "print(simulate(Robot.load(sys.argv[1]), duration=0.01).stable)")
+
+
+def test_a_damaged_cached_library_is_built_again_not_loaded(tmp_path):
+    """A truncated library (a full disk, a build killed while copying) would crash the
+    process that loads it: its bytes no longer match the digest written beside it, so it is
+    built again, and leftover build folders of killed builds are cleared."""
+    import os
+    import subprocess
+    import sys
+
+    built = voxel_plugin.plugin_library()
+    cache = tmp_path / "cache"
+    cache.mkdir()
+    copy = cache / built.name
+    copy.write_bytes(built.read_bytes()[: len(built.read_bytes()) // 3])
+    (cache / (built.name + ".sha256")).write_text((built.parent / (built.name + ".sha256"))
+                                                  .read_text())
+    stale = cache / "tmpkilledbuild"
+    stale.mkdir()
+    os.utime(stale, (0, 0))
+    env = {**os.environ, "MJREGEN_CACHE": str(cache)}
+    done = subprocess.run([sys.executable, "-c", LOAD_AND_WALK,
+                           "assets/robots/bimorph_walker_3d.npy"], env=env, capture_output=True,
+                          text=True, timeout=300)
+    assert done.returncode == 0 and done.stdout.strip() == "True", done.stderr
+    assert copy.stat().st_size == built.stat().st_size and not stale.exists()
+
+
+def test_a_cache_folder_that_cannot_be_written_is_one_clear_error(tmp_path):
+    import os
+    import subprocess
+    import sys
+
+    blocker = tmp_path / "not_a_folder"
+    blocker.write_text("")
+    env = {**os.environ, "MJREGEN_CACHE": str(blocker)}
+    done = subprocess.run([sys.executable, "-m", "mjregen", "walk",
+                           "assets/robots/bimorph_walker_3d.npy", "--duration", "0.01"],
+                          env=env, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 1
+    assert done.stderr.count("\n") == 1 and "cannot be written" in done.stderr
+    assert "set $MJREGEN_CACHE to a writable folder" in done.stderr
