@@ -8,7 +8,7 @@ library). Its file name is keyed by the plugin's sources, the compiler flags, th
 instruction set and the installed MuJoCo library (path, size and modification time: a new
 MuJoCo is a new library), so that a cache folder shared by different machines (a cluster's
 home directory) holds one library per kind of CPU. The folder is ``$MJREGEN_CACHE``, else
-``$XDG_CACHE_HOME/mjregen``, else ``~/.cache/mjregen``.
+``$XDG_CACHE_HOME/mjregen``, else ``~/.cache/mjregen`` (empty variables count as unset).
 """
 
 from __future__ import annotations
@@ -61,7 +61,8 @@ def library_path() -> Path:
     sources = b"".join((PLUGIN_SOURCES / name).read_bytes() for name in PLUGIN_FILES)
     libraries = tuple((str(path), path.stat().st_size, path.stat().st_mtime_ns)
                       for path in mujoco_libraries())
-    root = Path(os.environ.get("MJREGEN_CACHE",
-                               Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache"))
-                               / "mjregen"))
-    return root / f"libmjregen_voxels-{_key(sources, libraries)}.so"
+    # an empty variable counts as unset; a relative folder is taken from the working
+    # directory (the loader is handed an absolute path)
+    root = Path(os.environ.get("MJREGEN_CACHE")
+                or Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "mjregen")
+    return root.absolute() / f"libmjregen_voxels-{_key(sources, libraries)}.so"

@@ -5,6 +5,7 @@ from __future__ import annotations
 import copy
 import shutil
 import threading
+from pathlib import Path
 
 import mujoco
 import numpy as np
@@ -240,3 +241,16 @@ def test_a_cache_folder_that_cannot_be_written_is_one_clear_error(tmp_path):
     assert done.returncode == 1
     assert done.stderr.count("\n") == 1 and "cannot be written" in done.stderr
     assert "set $MJREGEN_CACHE to a writable folder" in done.stderr
+
+
+def test_an_empty_or_relative_cache_variable_gives_an_absolute_folder(tmp_path, monkeypatch):
+    """The loader is handed an absolute path (a relative one it would look up elsewhere);
+    an empty variable counts as unset."""
+    from mjregen.plugin_cache import library_path
+
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("MJREGEN_CACHE", "rel")
+    assert library_path().parent == tmp_path / "rel"
+    monkeypatch.setenv("MJREGEN_CACHE", "")
+    monkeypatch.setenv("XDG_CACHE_HOME", "")
+    assert library_path().parent == Path.home() / ".cache" / "mjregen"

@@ -114,7 +114,9 @@ def test_presets_are_the_papers_settings():
     assert PRESETS["3d"] == GAConfig(100, 300, 20, 20, 0.1)
     assert PRESETS["3d-paper-text"].sigma == 0.03
     assert PRESETS["regen"] == GAConfig(1000, 1000, 200, 200, 0.1)
-    assert PRESETS["3d"].with_overrides(population=20, sigma=None).population == 20
+    assert PRESETS["3d"].scaled(20).with_overrides(sigma=None).population == 20
+    with pytest.raises(ValueError, match="no child is ever mutated"):  # 20 elites fill it
+        PRESETS["3d"].with_overrides(population=20)
 
 
 def test_misuse_raises():
