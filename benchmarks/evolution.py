@@ -95,7 +95,7 @@ def short_run(args: argparse.Namespace) -> dict:
     """A real 3D evolution with the paper's GA (population `--pop`, its truncation and
     elites shares) on 2 worker processes; its throughput and the projected wall time of the
     paper's 300 generations at the measured mean time per generation."""
-    ga = PRESETS["3d"].with_overrides(population=args.pop, generations=args.gens)
+    ga = PRESETS["3d"].scaled(args.pop).with_overrides(generations=args.gens)
     task = SizeRecordingTask(nca=NCAConfig(dim=3, kind="ff"))
     rows = []
     wall = time.perf_counter()
