@@ -218,6 +218,8 @@ def _evolve_stats(args: argparse.Namespace) -> int:
         run_kind,
     )
 
+    if args.out.suffix.lower() != ".png":
+        raise MjregenError(f"--out {args.out}: the curves are written as PNG; name a .png file")
     if args.out.exists() and not args.force:
         raise OutputExistsError(args.out)
     for label, *runs in args.group:

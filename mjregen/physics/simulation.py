@@ -32,6 +32,7 @@ from mjregen.physics.timestep import rotational_dofs
 
 RUNAWAY_SPEED = 5000.0  # voxel lengths per second (5 m/s at 1 mm; walkers reach ~0.3 m/s)
 CHECK_EVERY = 200  # steps between checks for NaN and runaway speed
+MAX_RECORD_BYTES = 2**30  # a recorded centre-of-mass trajectory (8 bytes x 3 a step)
 WARNINGS = [(name, int(value)) for name, value in mujoco.mjtWarning.__members__.items()
             if name != "mjNWARNING"]
 
@@ -277,7 +278,8 @@ def simulate(
       raises. The locomotion task's fitness: `mjregen.tasks.fitness.locomotion_fitness`.
     Raises:
       InvalidGridError: `robot` is not a valid grid.
-      PhysicsParameterError: `duration` negative or not finite.
+      PhysicsParameterError: `duration` negative or not finite, or a `record`ed trajectory
+        larger than MAX_RECORD_BYTES.
       CompileError: `start_seed` or `start` not a whole number >= 0.
     """
     return simulate_starts(robot, physics=physics, duration=duration, record=record,
@@ -326,6 +328,12 @@ def _walk(compiled: CompiledRobot, start: int, *, duration: float | None, record
     dt = compiled.timestep
     n_settle, n_measure = round(settle / dt), round(measured / dt)
     sim = simulation_of(compiled, start)
+    size = (n_settle + n_measure + 1) * 3 * 8
+    if record and size > MAX_RECORD_BYTES:
+        raise PhysicsParameterError(
+            f"recording the centre of mass at each of {n_settle + n_measure:,} steps would take "
+            f"{size / 2**30:.1f} GiB (at most {MAX_RECORD_BYTES / 2**30:g}); walk a shorter "
+            "duration, or without the trajectory")
     com = np.empty((n_settle + n_measure + 1, 3)) if record else None
     reason = sim.run(n_settle, com=None if com is None else com[:n_settle])
     begin = sim.com()

@@ -16,6 +16,7 @@ the run continues bit for bit. Every random generator is seeded from the one see
 from __future__ import annotations
 
 import io
+import math
 import pickle
 from dataclasses import asdict, dataclass, field, replace
 from types import ModuleType
@@ -42,6 +43,9 @@ def import_ribs() -> ModuleType:
         raise MissingRibsError("MAP-Elites needs ribs: pip install 'mjregen[qd]' (or pip "
                                "install ribs)") from None
     return ribs
+
+
+MAX_CELLS = 1_000_000  # cells of an archive (ribs allocates every cell's genome up front)
 
 
 @dataclass(frozen=True)
@@ -92,6 +96,10 @@ class MapElitesConfig:
                              f"{len(self.descriptors)} ({', '.join(self.descriptors)})")
         if any(c < 1 for c in self.cells):
             raise ValueError(f"cells per descriptor must be >= 1, got {self.cells}")
+        if math.prod(self.cells) > MAX_CELLS:
+            raise ValueError(f"{' x '.join(map(str, self.cells))} = {math.prod(self.cells):,} "
+                             f"cells: an archive holds at most {MAX_CELLS:,} (each cell keeps a "
+                             "genome of thousands of numbers); use fewer cells per descriptor")
 
     def to_dict(self) -> dict:
         out = asdict(self)

@@ -102,6 +102,8 @@ def test_evolve_stats(tmp_path, capsys):
     assert main(["evolve-stats", "--group", "a", runs[0], "--group", "a", runs[1], "--out",
                  str(png), "--force"]) == 1
     assert "given more than once" in capsys.readouterr().err
+    assert main(["evolve-stats", "--group", "a", *runs, "--out", str(tmp_path / "x.jpg")]) == 1
+    assert "name a .png file" in capsys.readouterr().err and not (tmp_path / "x.jpg").exists()
 
 
 def test_grow_regrow_runs_resume_and_refuse_other_settings(tmp_path, capsys):

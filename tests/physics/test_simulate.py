@@ -141,3 +141,13 @@ def test_default_timestep_is_stable_for_a_block_with_interior_voxels(element):
         sim.data.qvel[:] = np.random.default_rng(1).normal(size=sim.model.nv) * 1e-3
         outcomes.append(sim.run(3000))
     assert outcomes[0] == "" and outcomes[1] != ""
+
+
+def test_a_trajectory_too_large_to_record_is_refused_before_it_is_taken(monkeypatch):
+    from mjregen.physics import simulation
+
+    monkeypatch.setattr(simulation, "MAX_RECORD_BYTES", 1000)
+    robot = Robot.load(ROBOTS / "bimorph_walker_3d.npy")
+    with pytest.raises(PhysicsParameterError, match="would take .* GiB .* shorter duration"):
+        simulate(robot, duration=0.01, record=True)
+    assert simulate(robot, duration=0.01).stable  # without the trajectory it walks

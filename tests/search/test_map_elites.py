@@ -135,6 +135,8 @@ def test_bad_input_is_refused():
         MapElitesConfig(iterations=1, batch=4, descriptors=("voxels",), cells=(3, 3))
     with pytest.raises(ValueError, match="unknown emitter"):
         MapElitesConfig(iterations=1, batch=4, emitter="cma")
+    with pytest.raises(ValueError, match="at most 1,000,000"):  # before any memory is taken
+        MapElitesConfig(iterations=1, batch=4, cells=(2000, 2000))
 
 
 def test_run_folder_contents(tmp_path):
