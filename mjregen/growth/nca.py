@@ -21,6 +21,7 @@ Genomes are float32 vectors in the order of ``torch.nn.utils.parameters_to_vecto
 
 from __future__ import annotations
 
+import math
 import threading
 from collections.abc import Iterator
 from concurrent.futures import ThreadPoolExecutor
@@ -71,21 +72,26 @@ class NCAConfig:
     input_scale: float = 3.0
 
     def __post_init__(self) -> None:
-        if self.dim not in GRID_SIZE:
+        if not isinstance(self.dim, int) or isinstance(self.dim, bool) \
+                or self.dim not in GRID_SIZE:
             raise ValueError(f"NCA dim must be 2 or 3, got {self.dim!r}")
         if self.kind not in ("ff", "lstm"):
             raise ValueError(f"NCA kind must be 'ff' or 'lstm', got {self.kind!r}")
         if self.grid_size == 0:
             object.__setattr__(self, "grid_size", GRID_SIZE[self.dim])
         for name in ("hidden", "lstm_input", "steps"):
-            if not isinstance(getattr(self, name), int) or getattr(self, name) < 1:
-                raise ValueError(f"NCA {name} must be a positive integer, got {getattr(self, name)!r}")
+            value = getattr(self, name)
+            if not isinstance(value, int) or isinstance(value, bool) or value < 1:
+                raise ValueError(f"NCA {name} must be a positive integer, got {value!r}")
         if not isinstance(self.grid_size, int) or self.grid_size < 3 or self.grid_size % 2 == 0:
             raise ValueError(f"NCA grid_size must be an odd integer >= 3, got {self.grid_size!r}")
-        if not (np.isfinite(self.input_scale) and self.input_scale > 0):
+        for name in ("input_scale", "alive_threshold"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) \
+                    or not math.isfinite(value):
+                raise ValueError(f"NCA {name} must be a finite number, got {value!r}")
+        if self.input_scale <= 0:
             raise ValueError(f"NCA input_scale must be positive, got {self.input_scale!r}")
-        if not np.isfinite(self.alive_threshold):
-            raise ValueError(f"NCA alive_threshold must be finite, got {self.alive_threshold!r}")
 
     @property
     def n_inputs(self) -> int:
@@ -110,6 +116,13 @@ class NCAConfig:
 
     @classmethod
     def from_dict(cls, values: dict) -> NCAConfig:
+        """The configuration `to_dict` wrote.
+
+        Raises:
+          ValueError: not a JSON object, an unknown key, or a value of the wrong type.
+        """
+        if not isinstance(values, dict):
+            raise ValueError(f"an NCA config is a JSON object, got {type(values).__name__}")
         unknown = set(values) - set(cls.__dataclass_fields__)
         if unknown:
             raise ValueError(f"unknown NCA config keys: {sorted(unknown)}")

@@ -396,3 +396,24 @@ def test_an_empty_population_is_refused_by_name():
     config = NCAConfig(dim=3, kind="ff")
     with pytest.raises(InvalidGenomeError, match="population is empty"):
         grow(config, np.zeros((0, config.genome_size), dtype=np.float32))
+
+
+@pytest.mark.parametrize("config, message", [
+    ([3, "ff"], "a JSON object"), ("3d", "a JSON object"),
+    ({"dim": 3.0, "kind": "ff"}, "dim must be 2 or 3"), ({"dim": True, "kind": "ff"}, "dim"),
+    ({"dim": 3, "kind": "ff", "hidden": "64"}, "hidden must be a positive integer"),
+    ({"dim": 3, "kind": "ff", "steps": True}, "steps must be a positive integer"),
+    ({"dim": 3, "kind": "ff", "input_scale": "x"}, "input_scale must be a finite number"),
+])
+def test_a_checkpoint_whose_config_has_wrong_types_is_named(tmp_path, config, message):
+    import json
+
+    from mjregen.errors import CheckpointError
+    from mjregen.growth.checkpoint import FORMAT
+
+    path = tmp_path / "odd.npz"
+    np.savez(path, format=np.array(FORMAT), config=np.array(json.dumps(config)),
+             metadata=np.array("{}"), genome=np.zeros(10, dtype=np.float32))
+    with pytest.raises(CheckpointError, match=f"odd.npz has an invalid NCA config: .*{message}"):
+        load_nca(path)
+
