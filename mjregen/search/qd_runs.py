@@ -148,10 +148,12 @@ def _iterations(task: QDTask, search: MapElites, *, out: Path, backend: Backend,
                 ranges: list[tuple[float, float]], started_with: str, progress: bool,
                 on_iteration: Callable[[dict], None] | None) -> QDRunSummary:
     """Run `search`'s remaining iterations into `out` (its metrics and checkpoint must agree:
-    `check_agreement`)."""
+    `check_agreement`; a missing archive.npz is written again from the checkpoint's state)."""
     config = search.config
     rows = read_metrics(out / "metrics.csv", "iteration", search.iteration)
     check_agreement(out, rows, search.iteration, "iteration")
+    if search.iteration and not (out / "archive.npz").is_file():  # restored from the state
+        save_archive(out / "archive.npz", search.snapshot(), config, ranges, task.nca)
     elapsed = float(rows[-1]["elapsed"]) if rows else 0.0
     last_plot = -np.inf
     bar = tqdm(total=config.iterations, initial=search.iteration, disable=not progress,

@@ -182,6 +182,15 @@ def test_resume_after_a_kill_equals_an_uninterrupted_run(tmp_path):
     a, b = read_archive(tmp_path / "full" / "archive.npz"), read_archive(tmp_path / "killed" / "archive.npz")
     assert np.array_equal(a.snapshot.index, b.snapshot.index)
     assert np.array_equal(a.snapshot.genomes, b.snapshot.genomes)
+    # a finished run whose archive was lost: its resume writes it again from the checkpoint
+    (tmp_path / "killed" / "archive.npz").unlink()
+    again = run(tmp_path / "killed", resume=True)
+    assert again.qd_score == full.qd_score
+    c = read_archive(tmp_path / "killed" / "archive.npz")
+    assert np.array_equal(a.snapshot.genomes, c.snapshot.genomes)
+    (tmp_path / "killed" / "metrics.csv").unlink()  # and whose metrics were lost: refused
+    with pytest.raises(RunFolderError, match="metrics.csv lists no iteration"):
+        run(tmp_path / "killed", resume=True)
 
 
 def test_runs_are_never_overwritten_and_bad_checkpoints_are_named(tmp_path):
