@@ -32,6 +32,10 @@ from mjregen.physics.rounding import round_like_mjcf
 from mjregen.physics.tendons import BondTable, MuscleTendons
 
 BLOCK_STEP_FLOOR = 0.5  # a network step below this × its stiffest bond block's is a failure
+# voxels of the largest robot compiled: one MuJoCo body each, compile time grows with the
+# square (3,375 voxels: 9 s; 8,000: MuJoCo cannot allocate the model); the paper's grids
+# hold at most 343
+MAX_VOXELS = 4096
 
 
 @dataclass(frozen=True)
@@ -131,7 +135,8 @@ def compile_robot(
         ``start_shift`` is > 0 (`mjregen.physics.start_state`).
       start_seed: the evaluation's seed of those starts (>= 0).
     Raises:
-      CompileError: empty robot, a clamped index that is not a voxel, negative elevation,
+      CompileError: empty robot, more than MAX_VOXELS voxels, a clamped index that is not a
+        voxel, negative elevation,
         a start index or seed that is not a whole number >= 0, or no starts.
       PhysicsParameterError: the robot's materials have different Poisson ratios; the
         network time step without the plugin library.
@@ -142,6 +147,10 @@ def compile_robot(
         raise CompileError(f"compile_robot needs a Robot, got {type(robot).__name__}")
     if robot.is_empty:
         raise CompileError("cannot compile an empty robot (it has no voxels)")
+    if robot.n_voxels > MAX_VOXELS:
+        raise CompileError(f"a robot of {robot.n_voxels:,} voxels is larger than mjregen "
+                           f"compiles ({MAX_VOXELS:,}: one MuJoCo body per voxel, and compile "
+                           "time grows with the square of their number)")
     if not (math.isfinite(elevation) and elevation >= 0.0):
         raise CompileError(f"elevation must be a finite height >= 0 m, got {elevation!r}")
     if drive not in mjcf.DRIVES:

@@ -229,6 +229,8 @@ def test_muscle_tendons_come_first_and_cover_exactly_the_muscle_bonds():
 def test_bad_input_raises_clear_errors():
     with pytest.raises(CompileError, match="empty"):
         compile_robot(Robot(np.zeros((5, 5, 5), dtype=np.int8)))
+    with pytest.raises(CompileError, match="8,000 voxels is larger than mjregen compiles"):
+        compile_robot(Robot.box((20, 20, 20)))  # MuJoCo could not allocate it
     robot = Robot.box((2, 1, 1))
     with pytest.raises(CompileError, match="not a voxel"):
         compile_robot(robot, clamped=[(0, 0, 0)])
