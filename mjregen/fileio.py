@@ -28,7 +28,7 @@ def atomic_open(path: str | os.PathLike, mode: str = "wb", *, overwrite: bool = 
         handle = tempfile.NamedTemporaryFile(mode, dir=path.parent, prefix=f".{path.name}.",
                                              delete=False)
     except OSError as error:
-        raise type(error)(error.errno, f"cannot write {path}: {error.strerror}") from None
+        raise type(error)(error.errno, f"cannot write it: {error.strerror}", str(path)) from None
     try:
         with handle:
             yield handle

@@ -77,9 +77,21 @@ def _run(handler: Handler, args: argparse.Namespace, words: list[str]) -> int:
         print(f"mjregen: error: {error.path} exists; pass --force to replace it",
               file=sys.stderr)
         return 1
-    except (MjregenError, OSError) as error:
+    except OSError as error:
+        print(f"mjregen: error: {os_message(error)}", file=sys.stderr)
+        return 1
+    except MjregenError as error:
         print(f"mjregen: error: {error}", file=sys.stderr)
         return 1
+
+
+def os_message(error: OSError) -> str:
+    """An operating-system error for people: the path(s) and the reason, without the errno
+    number ("x.npy: Permission denied"); errors without a path as Python words them."""
+    if error.filename is None or error.strerror is None:
+        return str(error)
+    paths = " -> ".join(str(p) for p in (error.filename, error.filename2) if p is not None)
+    return f"{paths}: {error.strerror}"
 
 
 def _prepare_gl(args: argparse.Namespace) -> None:

@@ -66,7 +66,7 @@ def test_output_under_a_file_names_the_target(tmp_path, capsys):
     (tmp_path / "file").write_text("")
     assert main(["export", str(tmp_path / "robot.npy"), "--out", str(tmp_path / "file" / "r.xml")]) == 1
     err = one_line_error(capsys)
-    assert f"cannot write {tmp_path / 'file' / 'r.xml'}" in err
+    assert f"{tmp_path / 'file' / 'r.xml'}: cannot write it:" in err and "Errno" not in err
 
 
 def test_python_dash_m_mjregen_runs():
@@ -245,3 +245,9 @@ def test_json_output_is_valid_json_without_finite_numbers(capsys):
     print_json({"best": float("-inf"), "walks": [1.5, float("nan")], "pair": (float("inf"), 2)})
     assert json.loads(capsys.readouterr().out) == {"best": None, "walks": [1.5, None],
                                                    "pair": [None, 2]}
+
+
+def test_an_os_error_names_the_path_and_the_reason_without_its_number(capsys):
+    assert main(["grow", "--out", "/proc/mjregen/robot.npy"]) == 1
+    err = one_line_error(capsys)
+    assert "/proc/mjregen/robot.npy: cannot write it:" in err and "Errno" not in err
