@@ -13,6 +13,7 @@ from __future__ import annotations
 import csv
 import hashlib
 import json
+import re
 import shutil
 import sys
 from pathlib import Path
@@ -25,6 +26,8 @@ from mjregen.search.run_lock import LOCK_FILE
 from mjregen.tasks.evaluation import PopulationEvaluation
 
 RUN_FORMAT = "mjregen-run-1"
+# the temporary file of an atomic write (`mjregen.fileio.atomic_open`) that a kill left behind
+WRITE_DEBRIS = re.compile(r"^\..+\.(json|csv|npz|npy|png|log)\.[a-z0-9_]{8}$")
 
 
 class RunFolderError(MjregenError, ValueError):
@@ -86,6 +89,16 @@ def _check_deletable(out: Path) -> None:
                              "folders; choose another --out")
 
 
+def _clear_write_debris(out: Path) -> None:
+    """Remove the temporary files of writes a killed run left in `out` and `out/best` (the
+    caller holds the folder's lock: no write is under way)."""
+    for folder in (out, out / "best"):
+        if folder.is_dir():
+            for path in folder.iterdir():
+                if path.is_file() and WRITE_DEBRIS.match(path.name):
+                    path.unlink()
+
+
 def _contents(folder: Path) -> list[Path]:
     """Everything in `folder` but its lock file and what a run killed while it wrote its
     first config.json left (the atomic write's temporary file): such a folder holds nothing."""
@@ -119,6 +132,7 @@ def prepare_folder(out: Path, config: dict, *, resume: bool, force: bool,
             raise RunFolderError(
                 f"{out} holds a run with different settings ({', '.join(differences)}); "
                 "resume it with its own settings or use another folder")
+        _clear_write_debris(out)
         return (out / checkpoint).is_file()
     if out.exists() and _contents(out):
         if not force:

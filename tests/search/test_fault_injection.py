@@ -11,6 +11,7 @@ from test_runs import GA, SphereTask, metrics  # the same tiny task
 
 from mjregen.growth.checkpoint import load_nca
 from mjregen.search.backends import SerialBackend
+from mjregen.search.run_folder import WRITE_DEBRIS
 from mjregen.search.runs import run_evolution
 
 KILLS = 20
@@ -76,4 +77,7 @@ def test_twenty_random_kills_each_resumed_give_the_uninterrupted_run(tmp_path):
             killed.append(len(metrics(out)) if (out / "metrics.csv").is_file() else 0)
         finish(out)
         assert same_run(out, full), f"trial {trial}"
+        leftovers = [p.name for p in (*out.iterdir(), *(out / "best").iterdir())
+                     if WRITE_DEBRIS.match(p.name)]
+        assert not leftovers, f"trial {trial}: {leftovers}"  # a resume clears killed writes
     assert len(killed) >= KILLS // 2 and len(set(killed)) >= 3  # at several points of the run
