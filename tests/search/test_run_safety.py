@@ -129,3 +129,22 @@ def _state(pid: str) -> str:
         return Path(f"/proc/{pid}/stat").read_text().split(")")[-1].split()[0]
     except OSError:
         return "Z"
+
+
+def test_a_second_evolve_on_a_running_folder_is_refused_even_with_force(tmp_path):
+    """The issue's case: a second `mjregen evolve --out R --force` while the first runs used
+    to delete R under it; now it is refused, naming the first, and R is left alone."""
+    out = tmp_path / "run"
+    first = start(*SMALL, "--gens", "50", "--backend", "serial", "--out", str(out))
+    try:
+        wait_for(out / "checkpoint.npz", first)
+        second = mjregen(*SMALL, "--gens", "1", "--seed", "5", "--backend", "serial", "--out",
+                         str(out), "--force")
+        assert second.returncode == 1
+        assert f"is in use by process {first.pid}" in second.stderr
+        assert second.stderr.count("\n") == 1
+        assert json.loads((out / "config.json").read_text())["seed"] == 0  # the first's
+    finally:
+        first.send_signal(signal.SIGKILL)
+        first.wait()
+    assert (out / "checkpoint.npz").is_file()  # the first's files are all there
