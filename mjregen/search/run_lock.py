@@ -2,15 +2,15 @@
 
 `RunLock(folder)` takes an exclusive, non-blocking `fcntl.flock` on ``folder/.mjregen.lock``
 (creating the folder and the file) and writes the holder's process id, host and start time
-into it. A run in another process is refused with that holder's description (within one
-process the lock is re-entrant: a regrowth run holds its folder around the GA run it writes
-there); the lock goes with its process, so the lock of a process that died
-(killed, crashed, a machine that rebooted) is taken over by the next run without a word. The
-lock file itself is never deleted, not even by ``force``: a folder's lock must outlive its
-contents (a folder the lock created and nothing else filled is removed again on release, so a
-refused run leaves nothing behind). POSIX only (Linux, macOS), like the rest of mjregen's process handling.
+into it. A run in another process is refused with that holder's description. Within one
+process the lock is re-entrant (a regrowth run holds its folder around the GA run it writes
+there); it does not keep apart threads of one process. The lock goes with its process, so
+the lock of a process that died (killed, crashed, a machine that rebooted) is taken over by
+the next run without a word. The lock file is never deleted, not even by ``force``: a
+folder's lock must outlive its contents (only a folder the lock itself created and nothing
+else filled is removed again on release, so a refused run leaves nothing behind). POSIX only
+(Linux, macOS), like the rest of mjregen's process handling.
 """
-
 from __future__ import annotations
 
 import fcntl
@@ -34,7 +34,7 @@ class RunLock:
     """An exclusive lock on a run folder (module docstring); a context manager.
 
     Raises (on entering):
-      RunFolderBusyError: another process (or another run of this one) holds the folder.
+      RunFolderBusyError: another process holds the folder.
       MjregenError: the folder or its lock file cannot be created or opened.
     """
 
@@ -92,12 +92,12 @@ class RunLock:
             self._nested = False
         elif self._handle is not None:
             del _HELD[key]
+            if self._created and [p.name for p in self.folder.iterdir()] == [LOCK_FILE]:
+                self.path.unlink()  # while still held: no one can lock the file removed
+                self.folder.rmdir()
             fcntl.flock(self._handle.fileno(), fcntl.LOCK_UN)
             self._handle.close()
             self._handle = None
-            if self._created and [p.name for p in self.folder.iterdir()] == [LOCK_FILE]:
-                self.path.unlink()
-                self.folder.rmdir()
 
 
 def describe_holder(text: str) -> str:
