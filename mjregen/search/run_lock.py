@@ -11,6 +11,7 @@ folder's lock must outlive its contents (only a folder the lock itself created a
 else filled is removed again on release, so a refused run leaves nothing behind). POSIX only
 (Linux, macOS), like the rest of mjregen's process handling.
 """
+
 from __future__ import annotations
 
 import fcntl
