@@ -133,7 +133,8 @@ def add_physics_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--start-shift", type=float, metavar="S",
                         help="voxel lengths: every voxel starts moved by a seeded random "
                              "offset of this standard deviation, so that no body balances on "
-                             "an exact symmetry (default 1e-4; 0 starts it exactly on the grid)")
+                             "an exact symmetry (default 1e-4; 0 starts it exactly on the grid; "
+                             "else at least 1e-5, what the model's keyframe keeps)")
 
 
 def physics_from_args(args: argparse.Namespace):

@@ -31,6 +31,10 @@ WAVEFORMS = ("contract", "symmetric")
 PAPER_TIMES = {3: (0.05, 0.5), 2: (1.0, 0.25)}  # (settle, measured) s
 DEFAULT_START_SHIFT = 1e-4  # voxel lengths (Scene.start_shift; measured in docs/transfer.md)
 MAX_START_SHIFT = 0.1  # voxel lengths: beyond this a start is a deformed robot, not a rounding
+# voxel lengths: the smallest shift a start keeps; the model holds each start as a keyframe
+# whose positions MJCF writes to 6 significant digits (steps of 1e-5 L for positions 1 to 10
+# voxel lengths from the origin), so smaller shifts would mostly be rounded away
+MIN_START_SHIFT = 1e-5
 
 
 @dataclass(frozen=True)
@@ -133,7 +137,9 @@ class Scene:
         symmetry, so that no body balances in an equilibrium only exact arithmetic keeps (a
         one-voxel plate on its edge). 1e-4 (0.1 µm at 1 mm voxels) makes such plates fall as
         in the paper's engine and moves the paper's robots less than their time step does
-        (docs/transfer.md); 0 starts every voxel exactly at its grid position.
+        (docs/transfer.md); 0 starts every voxel exactly at its grid position; between 0 and
+        MIN_START_SHIFT (1e-5) is refused (the keyframe's 6 significant digits would round
+        it away).
     """
 
     voxel_size: float = 1e-3
@@ -161,6 +167,11 @@ class Scene:
         check_range("timestep_safety", self.timestep_safety, low=0.0)
         check_range("start_shift (voxel lengths)", self.start_shift, low=0.0,
                     high=MAX_START_SHIFT, low_open=False, high_open=False)
+        if 0.0 < self.start_shift < MIN_START_SHIFT:
+            raise PhysicsParameterError(
+                f"start_shift {self.start_shift!r} voxel lengths is below {MIN_START_SHIFT:g}: "
+                "a start is a keyframe of the model, whose 6 significant digits would round "
+                "such a shift away; use 0 (the exact start) or at least that")
         check_choice("waveform", self.waveform, WAVEFORMS)
         check_flag("floor", self.floor)
 

@@ -11,13 +11,16 @@ A start is named by the evaluation's seed (a run's seed; 0 for a plain walk), it
 among the starts a robust score averages, and the robot's grid itself (its bytes hashed):
 the same robot gets the same start in every process and on every backend, and two robots
 get independent ones. The compiled model holds each start as a keyframe ``start_<index>``
-(`key_name`), so the exported MJCF carries the very start `simulate` runs.
+(`key_name`), so the exported MJCF carries the very start `simulate` runs; its positions are
+rounded as MJCF writes them (6 significant digits: steps of 1e-5 voxel lengths 1 to 10 voxel
+lengths from the origin), which is why a shift is 0 or at least `MIN_START_SHIFT`.
 """
 
 from __future__ import annotations
 
 import hashlib
 
+import mujoco
 import numpy as np
 
 from mjregen.physics.model import RobotLayout
@@ -76,3 +79,17 @@ def start_qpos(layout: RobotLayout, scene: Scene, grid: np.ndarray, *, seed: int
     offsets = start_generator(grid, seed, index).normal(0.0, 1.0, int(translational.sum()))
     qpos[translational] += offsets * (scene.start_shift * scene.voxel_size)
     return np.array(round_like_mjcf(qpos))
+
+
+def translational_coordinates(model: mujoco.MjModel) -> np.ndarray:
+    """``(nq,)`` bool: the coordinates of `model` that are positions (free joints' x, y, z;
+    slides), as `rest_qpos` marks them; for perturbing a state directly, finer than a
+    keyframe holds (studies of chaos, `benchmarks/accuracy.py`)."""
+    mask = np.zeros(model.nq, dtype=bool)
+    for joint in range(model.njnt):
+        address = model.jnt_qposadr[joint]
+        if model.jnt_type[joint] == mujoco.mjtJoint.mjJNT_FREE:
+            mask[address:address + 3] = True
+        elif model.jnt_type[joint] == mujoco.mjtJoint.mjJNT_SLIDE:
+            mask[address] = True
+    return mask

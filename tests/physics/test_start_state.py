@@ -116,7 +116,7 @@ def test_the_default_start_shift_and_older_descriptions():
     assert migrate_physics(older)["format"] == 5
 
 
-@pytest.mark.parametrize("shift", [-1e-9, math.nan, math.inf, 0.5, "1e-4", True])
+@pytest.mark.parametrize("shift", [-1e-9, math.nan, math.inf, 0.5, "1e-4", True, 1e-6])
 def test_a_bad_start_shift_is_refused(shift):
     with pytest.raises(PhysicsParameterError, match="start_shift"):
         Physics().replace(start_shift=shift)
@@ -129,3 +129,15 @@ def test_a_bad_start_shift_is_refused(shift):
 def test_bad_starts_are_refused(kwargs, message):
     with pytest.raises(CompileError, match=message):
         compile_robot(Robot.box((2, 2, 2)), **kwargs)
+
+
+@pytest.mark.parametrize("shift, share", [(1e-5, 0.6), (1e-4, 0.9)])
+def test_the_start_shift_survives_the_keyframes_digits(shift, share):
+    """MJCF keeps 6 significant digits of a position (steps of 1e-5 voxel lengths 1 to 10
+    voxel lengths from the origin): the smallest shift allowed still moves most coordinates,
+    the default nearly all, by about the shift asked (a 1e-9 one would have moved none)."""
+    compiled = compile_robot(Robot.load("assets/robots/paper/tripod.npy"),
+                             physics=Physics().replace(start_shift=shift))
+    offsets = (compiled.model.key_qpos[0] - compiled.model.qpos0).reshape(-1, 7)[:, :3] / 1e-3
+    assert np.mean(offsets != 0.0) > share
+    assert np.std(offsets) == pytest.approx(shift, rel=0.2)

@@ -22,7 +22,7 @@ EXACT = Physics().replace(start_shift=0.0)
 def test_a_mirror_symmetric_walker_loses_its_walk_from_shifted_starts():
     """The mirror walker is its own mirror image across y: from the exact start it keeps that
     symmetry and walks a way that any shift ends (here the default start's 1e-4 voxel
-    lengths, and 1e-9)."""
+    lengths, and the smallest one, 1e-5)."""
     robot = Robot.load(MIRROR_WALKER)
     starts = shifted_starts(robot, starts=3)
     assert starts.mirror_axes == ("y",) and starts.shift == 1e-4
@@ -32,8 +32,8 @@ def test_a_mirror_symmetric_walker_loses_its_walk_from_shifted_starts():
     assert starts.high < KEPT * starts.default.distance
     assert starts.kept == pytest.approx(starts.mean / starts.default.distance)
     assert starts.depends_on_start
-    tiny = shifted_starts(robot, starts=2, shift=1e-9)
-    assert tiny.shift == 1e-9 and tiny.high < KEPT * tiny.default.distance
+    tiny = shifted_starts(robot, starts=2, shift=1e-5)  # the smallest a start keeps
+    assert tiny.shift == 1e-5 and tiny.high < KEPT * tiny.default.distance
 
 
 def test_a_walker_without_a_mirror_plane_keeps_its_walk():
@@ -46,10 +46,10 @@ def test_a_walker_without_a_mirror_plane_keeps_its_walk():
 
 def test_threads_walk_the_same_starts_as_one_process():
     robot = Robot.load(MIRROR_WALKER)
-    serial = shifted_starts(robot, physics=SHORT, duration=0.1, starts=3, shift=1e-6,
+    serial = shifted_starts(robot, physics=SHORT, duration=0.1, starts=3, shift=1e-5,
                             start_seed=5, record_default=True)
     with ThreadBackend(2) as backend:
-        threaded = shifted_starts(robot, physics=SHORT, duration=0.1, starts=3, shift=1e-6,
+        threaded = shifted_starts(robot, physics=SHORT, duration=0.1, starts=3, shift=1e-5,
                                   start_seed=5, backend=backend, record_default=True)
     assert serial.indices == threaded.indices == (0, 1, 2) and serial.seed == threaded.seed == 5
     assert np.array_equal(serial.distances, threaded.distances)
@@ -80,6 +80,7 @@ def test_a_robot_that_does_not_walk_has_no_share_to_keep():
 @pytest.mark.parametrize("kwargs, message", [
     ({"starts": 0}, "starts"), ({"starts": 2.0}, "starts"), ({"shift": 0.0}, "shift"),
     ({"shift": math.nan}, "shift"), ({"shift": -1e-9}, "shift"), ({"shift": 0.5}, "shift"),
+    ({"shift": 1e-9}, "round such a shift away"),
 ])
 def test_bad_shifted_starts_are_refused(kwargs, message):
     with pytest.raises(MjregenError, match=message):
