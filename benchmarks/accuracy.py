@@ -72,6 +72,7 @@ from mjregen.grid import Material, Robot
 from mjregen.physics import MujocoPipeline, Physics
 from mjregen.physics.compile import compile_robot
 from mjregen.physics.simulation import Simulation
+from mjregen.physics.start_state import translational_coordinates
 from mjregen.tasks.fitness import VOXEL_COST
 from mjregen.tasks.starts import KEPT
 
@@ -154,15 +155,16 @@ def evaluate(run: Run) -> dict:
     """
     name = run.integrator or getattr(run.physics.pipeline, "integrator", "euler")
     # the voxel plugin starts the muscles at the scene's settle time
-    # the start: every voxel shifted by `perturb` voxel lengths (seed `seed`), or exact
-    physics = run.physics.replace(settle_time=run.settle, start_shift=run.perturb)
+    # the exact start, then every voxel shifted by `perturb` voxel lengths (seed `seed`)
+    # directly in the state: finer than a start's keyframe holds
+    physics = run.physics.replace(settle_time=run.settle, start_shift=0.0)
     if name != "euler" and physics.pipeline.name == "voxel":
         # Euler runs what `simulate` runs (the voxel plugin: beam bonds, engine floor, native
         # stepper); the other integrators run MuJoCo's own tendons and contacts, the engine
         # floor's nearest ("point"), with the muscles driven from Python (so "-mid" applies)
         physics = mujoco_twin(physics)
     compiled = compile_robot(run.robot, physics=physics, elevation=run.elevation,
-                             clamped=run.clamped, start_seed=run.seed)
+                             clamped=run.clamped)
     model = compiled.model
     midpoint = name.endswith("-mid")
     model.opt.integrator = INTEGRATORS[name.removesuffix("-mid")]
@@ -171,9 +173,13 @@ def evaluate(run: Run) -> dict:
     dt = float(model.opt.timestep)
     cls = MidpointSimulation if midpoint else Simulation
     sim = cls(model, physics=physics, muscles=compiled.muscles, actuation_start=run.settle,
-              plugin_instance=compiled.plugin_instance, start_key=compiled.start_key(0))
+              plugin_instance=compiled.plugin_instance)
     if run.kick:
         sim.data.qvel[:] = np.random.default_rng(0).normal(0.0, run.kick, model.nv)
+    if run.perturb:
+        positions = translational_coordinates(model)
+        sim.data.qpos[positions] += np.random.default_rng(run.seed).normal(
+            0.0, run.perturb * run.physics.scene.voxel_size, int(positions.sum()))
     n_settle, n_measure = round(run.settle / dt), round(run.measured / dt)
     cpu0 = time.process_time()
     reason = sim.run(n_settle)

@@ -312,14 +312,16 @@ def simulate_starts(
     compiled = compile_robot(robot, physics=physics, starts=starts, start_seed=start_seed)
     share = ((time.perf_counter() - wall0) / len(starts),
              (time.process_time() - cpu0) / len(starts))
-    return [_walk(compiled, start, duration=duration, record=record, compile_time=share)
+    return [walk(compiled, start, duration=duration, record=record, compile_time=share)
             for start in starts]
 
 
-def _walk(compiled: CompiledRobot, start: int, *, duration: float | None, record: bool,
-          compile_time: tuple[float, float]) -> Result:
-    """Settle and walk `compiled` from its start `start`; `compile_time`: (wall, CPU) s to
-    add to the result's."""
+def walk(compiled: CompiledRobot, start: int = 0, *, duration: float | None = None,
+         record: bool = False, sim: Simulation | None = None,
+         compile_time: tuple[float, float] = (0.0, 0.0)) -> Result:
+    """Settle and walk `compiled` from its start `start`, or from the state of `sim` (a
+    `simulation_of(compiled)` whose state the caller changed, e.g. perturbed finer than a
+    keyframe holds); `compile_time`: (wall, CPU) s to add to the result's. As `simulate`."""
     wall0, cpu0 = time.perf_counter(), time.process_time()
     robot, physics = compiled.robot, compiled.physics
     dim = robot.dim
@@ -327,7 +329,7 @@ def _walk(compiled: CompiledRobot, start: int, *, duration: float | None, record
     measured = measured if duration is None else duration
     dt = compiled.timestep
     n_settle, n_measure = round(settle / dt), round(measured / dt)
-    sim = simulation_of(compiled, start)
+    sim = simulation_of(compiled, start) if sim is None else sim
     size = (n_settle + n_measure + 1) * 3 * 8
     if record and size > MAX_RECORD_BYTES:
         raise PhysicsParameterError(
