@@ -142,6 +142,7 @@ def prepare_folder(out: Path, config: dict, *, resume: bool, force: bool,
         for path in _contents(out):
             shutil.rmtree(path) if path.is_dir() and not path.is_symlink() else path.unlink()
     out.mkdir(parents=True, exist_ok=True)
+    _clear_write_debris(out)  # a first config.json write that a killed run left
     with atomic_open(config_path, "w") as handle:
         json.dump(config, handle, indent=2)
     return False

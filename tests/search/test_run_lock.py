@@ -132,3 +132,14 @@ def test_a_run_killed_in_its_first_generation_starts_again(tmp_path):
     (out / "metrics.csv").unlink()
     summary = run(out, resume=True)
     assert summary.generations == GA.generations
+
+
+@pytest.mark.parametrize("force", [False, True])
+def test_a_run_killed_inside_its_first_config_write_starts_again_without_its_debris(
+        tmp_path, force):
+    out = tmp_path / "run"
+    out.mkdir()
+    (out / ".config.json.k1ll3d00").write_text('{"half": ')  # what the killed write left
+    summary = run(out, force=force)
+    assert summary.generations == GA.generations
+    assert sorted(p.name for p in out.iterdir() if p.name.startswith(".")) == [LOCK_FILE]
