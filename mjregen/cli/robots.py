@@ -311,7 +311,7 @@ def _export(args: argparse.Namespace) -> int:
     with atomic_open(args.out, "w", overwrite=args.force) as handle:
         handle.write(compiled.to_xml())
     print(f"wrote {args.out} ({robot.n_voxels} voxels, {compiled.pipeline} pipeline)")
-    if compiled.pipeline == "voxel":
+    if compiled.plugin_instance is not None:
         from mjregen.physics import plugin_library
 
         print(f"load it in MuJoCo after mujoco.mj_loadPluginLibrary('{plugin_library()}')")

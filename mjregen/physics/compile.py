@@ -17,7 +17,8 @@ import numpy as np
 
 from mjregen.errors import CompileError, PhysicsParameterError
 from mjregen.grid import Robot
-from mjregen.physics import mjcf, start_state, timestep, voxel_plugin
+from mjregen.physics import mjcf, start_state, timestep
+from mjregen.physics.builders import builder_for
 from mjregen.physics.model import (
     BeamTable,
     RobotLayout,
@@ -27,7 +28,6 @@ from mjregen.physics.model import (
     voxel_name,
 )
 from mjregen.physics.params import Physics
-from mjregen.physics.pipelines import VoxelPipeline
 from mjregen.physics.rounding import round_like_mjcf
 from mjregen.physics.tendons import BondTable, MuscleTendons
 
@@ -44,7 +44,6 @@ class CompiledRobot:
 
     Attributes:
       robot, physics: what was compiled.
-      pipeline: "voxel" or "mujoco" (`Physics.pipeline`).
       spec: the `mujoco.MjSpec` the model was compiled from (`to_xml` writes it).
       model: the `mujoco.MjModel` that `simulate` runs.
       voxel_index: ``(n_voxels, dim)`` int grid indices, in body order.
@@ -63,11 +62,12 @@ class CompiledRobot:
         (`mjregen.physics.start_state`); empty when the scene's start shift is 0 (every walk
         starts at ``qpos0``, every voxel exactly at its grid position).
       start_seed: the seed those starts were drawn with.
+      plugin_instance: the voxel plugin's instance id in `model`, or None (the pure-MuJoCo
+        pipeline).
     """
 
     robot: Robot
     physics: Physics
-    pipeline: str
     spec: mujoco.MjSpec
     model: mujoco.MjModel
     voxel_index: np.ndarray
@@ -80,6 +80,7 @@ class CompiledRobot:
     network_rates: tuple[float, float] | None = None
     starts: tuple[int, ...] = ()
     start_seed: int = 0
+    plugin_instance: int | None = 0
 
     def start_key(self, index: int) -> int | None:
         """The keyframe id of start `index`, or None when walks start at ``qpos0`` (start
@@ -100,9 +101,9 @@ class CompiledRobot:
         return float(self.model.opt.timestep)
 
     @property
-    def plugin_instance(self) -> int | None:
-        """The voxel plugin's instance id in `model`, or None (pure-MuJoCo pipeline)."""
-        return 0 if self.pipeline == "voxel" else None
+    def pipeline(self) -> str:
+        """The pipeline's name: "voxel" or "mujoco" (`Physics.pipeline`)."""
+        return self.physics.pipeline.name
 
     def to_xml(self) -> str:
         """MJCF of exactly `model`. With the "voxel" pipeline, loading it needs the plugin
@@ -155,20 +156,13 @@ def compile_robot(
         raise CompileError(f"elevation must be a finite height >= 0 m, got {elevation!r}")
     if drive not in mjcf.DRIVES:
         raise CompileError(f"drive must be one of {mjcf.DRIVES}, got {drive!r}")
-    pipeline = physics.pipeline.name
-    if drive == "ctrl" and pipeline != "voxel":
-        raise CompileError("drive 'ctrl' needs the voxel pipeline")
+    builder = builder_for(physics.pipeline)
     starts, start_seed = _checked_starts(starts, start_seed)
     layout = robot_layout(robot, physics, {tuple(int(i) for i in c) for c in clamped},
                           elevation)
     table, beams, muscles, max_k_per_m = bond_tables(layout, physics)
-    if pipeline == "voxel":
-        voxel_plugin.library()  # registers the plugin with MuJoCo
     spec, bodies = mjcf.voxel_bodies(layout, physics)
-    if pipeline == "voxel":
-        mjcf.add_voxel_plugin(spec, layout, physics, table, beams, drive)
-    else:
-        mjcf.add_mujoco_bonds(spec, bodies, layout, physics, table)
+    builder.add_forces(spec, bodies, layout, physics, table, beams, drive)
     if physics.scene.start_shift == 0.0:
         starts = ()
     for index in starts:
@@ -192,10 +186,11 @@ def compile_robot(
         model.opt.timestep = spec.option.timestep
     body_ids = np.array([model.body(body.name).id for body in bodies])
     return CompiledRobot(
-        robot=robot, physics=physics, pipeline=pipeline, spec=spec, model=model,
+        robot=robot, physics=physics, spec=spec, model=model,
         voxel_index=layout.grid_index, body_ids=body_ids, masses=layout.masses,
-        muscles=muscles if pipeline == "mujoco" else None, n_bonds=len(layout.bonds),
-        bonds=table, beams=beams, network_rates=rates, starts=starts, start_seed=start_seed)
+        muscles=muscles if builder.drives_muscle_tendons else None, n_bonds=len(layout.bonds),
+        bonds=table, beams=beams, network_rates=rates, starts=starts, start_seed=start_seed,
+        plugin_instance=builder.plugin_instance)
 
 
 def _checked_starts(starts: Sequence[int], seed: int) -> tuple[tuple[int, ...], int]:
@@ -217,21 +212,11 @@ def network_rule_rates(model: mujoco.MjModel, layout: RobotLayout, physics: Phys
     included; `held`: ``(nv,)`` bool, dofs held still (`timestep.network_rates`). The
     pure-MuJoCo pipeline's network is measured on the same robot's plugin model with its
     tendons, floor off (its contacts are not the engine floor)."""
-    scene, pipeline = physics.scene, physics.pipeline
-    if pipeline.name != "voxel":
-        if not voxel_plugin.available():
-            raise PhysicsParameterError(
-                "timestep_rule 'network' computes the step from the voxel plugin's bond "
-                "forces, whose library needs a C compiler; use timestep_rule 'stiffest_bond' "
-                "(sphere_physics() and box_physics() do)")
-        physics = physics.replace(pipeline=VoxelPipeline(
-            bond_element="tendons", bond_model=pipeline.bond_model, collision_radius=0.0),
-            floor=False)
-        spec, _ = mjcf.voxel_bodies(layout, physics)
-        mjcf.add_voxel_plugin(spec, layout, physics, table, beams, "waveform")
-        model = spec.compile()
+    model, physics = builder_for(physics.pipeline).rates_model(model, layout, physics, table,
+                                                                beams)
+    scene = physics.scene
     floor_k = floor_c = None
-    if scene.floor and pipeline.name == "voxel":
+    if scene.floor:
         voxel_bodies = np.array([model.body(voxel_name(index)).id
                                  for index, _ in layout.voxels])
         stiffness, damping = engine_floor_constants(layout, physics)

@@ -61,9 +61,8 @@ def voxel_bodies(layout: RobotLayout, physics: Physics) -> tuple[mujoco.MjSpec, 
     spec = mujoco.MjSpec()
     spec.modelname = "mjregen_robot"
     spec.option.gravity = round_like_mjcf([0.0, 0.0, -scene.gravity])
-    integrator = getattr(physics.pipeline, "integrator", "euler")  # the plugin: Euler
     spec.option.integrator = {"euler": mujoco.mjtIntegrator.mjINT_EULER,
-                              "rk4": mujoco.mjtIntegrator.mjINT_RK4}[integrator]
+                              "rk4": mujoco.mjtIntegrator.mjINT_RK4}[physics.pipeline.integrator]
     for material, name in MATERIAL_NAMES.items():
         spec.add_material(name=name, rgba=list(MATERIAL_RGBA[material]))
     if scene.floor:

@@ -88,6 +88,7 @@ class VoxelPipeline:
     """
 
     name: ClassVar[str] = "voxel"
+    integrator: ClassVar[str] = "euler"  # semi-implicit Euler, the paper engine's
     bond_element: str = "beam"
     beam_law: str = "engine"
     beam_damping: str = "engine"

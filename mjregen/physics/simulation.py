@@ -24,9 +24,9 @@ from numpy.typing import ArrayLike
 
 from mjregen.errors import PhysicsParameterError
 from mjregen.grid import Robot
+from mjregen.physics.builders import builder_for
 from mjregen.physics.compile import CompiledRobot, compile_robot
 from mjregen.physics.params import Physics
-from mjregen.physics.stepper import NativeStepper, unsupported_on
 from mjregen.physics.tendons import MuscleTendons
 from mjregen.physics.timestep import rotational_dofs
 
@@ -127,7 +127,8 @@ class Simulation:
             self._minus = length * muscles.weights[:, 1]
             self._lateral2 = muscles.lateral ** 2
             self._rest = self.model.tendon_lengthspring[: muscles.count]
-        self.stepper = _stepper_for(model, self.data, physics, plugin_instance)
+        self.stepper = builder_for(physics.pipeline).stepper(model, self.data, physics,
+                                                             plugin_instance)
         self._inv_limit = inverse_speed_limits(model, scene.voxel_size)
 
     def strains(self, t: float) -> tuple[float, float]:
@@ -225,21 +226,6 @@ def instability(data: mujoco.MjData, inverse_limits: np.ndarray) -> str:
     if data.qvel.size and np.max(np.abs(data.qvel) * inverse_limits) > 1.0:
         return f"runaway speed (above {RUNAWAY_SPEED:g} voxel lengths per second)"
     return ""
-
-
-def _stepper_for(model: mujoco.MjModel, data: mujoco.MjData, physics: Physics,
-                 plugin_instance: int | None) -> NativeStepper | None:
-    """The `NativeStepper` that the pipeline's ``stepper`` asks for, or None (``mj_step``)."""
-    choice = getattr(physics.pipeline, "stepper", "mujoco")
-    if choice == "mujoco":
-        return None
-    reason = ("the model has no voxel plugin" if plugin_instance is None
-              else unsupported_on(model, data, plugin_instance))
-    if not reason:
-        return NativeStepper(model, data, instance=plugin_instance, checked=True)
-    if choice == "native":
-        raise PhysicsParameterError(f"stepper 'native' cannot step this model: {reason}")
-    return None
 
 
 def simulation_of(compiled: CompiledRobot, start: int = 0) -> Simulation:

@@ -284,3 +284,20 @@ def test_point_contacts_and_collision_spheres_build_the_documented_geoms():
     assert np.array_equal(a.data.qpos, b.data.qpos)
     driven = compiled.muscles.count
     assert not np.allclose(model.tendon_lengthspring[:driven, 0], compiled.bonds.rest[:driven])
+
+
+@pytest.mark.parametrize("pipeline", ["voxel", "mujoco"])
+def test_each_pipeline_builds_its_own_forces_and_driver(pipeline):
+    """The voxel pipeline's model holds the plugin (instance 0) and no tendons, and the
+    plugin drives its muscles; the MuJoCo pipeline's holds no plugin, its bonds are tendons
+    and Python drives the muscle tendons."""
+    robot = Robot(np.pad(np.full((2, 2, 2), int(Material.MUSCLE_PLUS), np.int8), 1))
+    compiled = compile_robot(robot, physics=Physics().replace(pipeline=pipeline))
+    voxel = pipeline == "voxel"
+    assert compiled.pipeline == pipeline
+    assert compiled.model.nplugin == int(voxel)
+    assert compiled.plugin_instance == (0 if voxel else None)
+    assert (compiled.model.ntendon == 0) == voxel
+    assert (compiled.muscles is None) == voxel
+    assert (Simulation(compiled.model, physics=compiled.physics,
+                       plugin_instance=compiled.plugin_instance).stepper is None) != voxel
