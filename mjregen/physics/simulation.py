@@ -2,12 +2,13 @@
 
 `simulate(robot)` compiles the robot (`mjregen.physics.compile`), starts it from one of its
 starts (every voxel moved by a seeded offset: `mjregen.physics.start_state`; a keyframe of the
-model), lets it settle without actuation for the scene's settle time, then drives the muscles for the measured time and returns a
-`Result`. In the voxel pipeline (the default) every force and the muscles are the voxel
-plugin's, inside MuJoCo's step, so `Simulation.run` advances ``CHECK_EVERY`` steps per call
-between stability checks and runs no Python per step; the steps are the native stepper's
-(`mjregen.physics.stepper`: ``mj_step``'s Euler step for independent voxel bodies, to rounding, at
-half the cost) or ``mj_step``'s (the pipeline's ``stepper``). In the pure-MuJoCo pipeline the only
+model), lets it settle without actuation for the scene's settle time, then drives the muscles
+for the measured time and returns a `Result`. `Simulation.run` advances ``CHECK_EVERY`` steps
+between stability checks. In the voxel pipeline (the default) every force and the muscles
+are the voxel plugin's, inside MuJoCo's step, so no Python runs per step; the steps are the
+native stepper's (`mjregen.physics.stepper`: ``mj_step``'s Euler step for independent voxel
+bodies, to rounding, at half the cost) or ``mj_step``'s (the pipeline's ``stepper``; the
+pipeline's builder chooses, `mjregen.physics.builders`). In the pure-MuJoCo pipeline the only
 per-step Python work is writing the driven tendons' rest lengths.
 """
 
@@ -148,46 +149,50 @@ class Simulation:
           com: optional ``(n_steps, 3)`` array, filled with the centre of mass (m) at the
             start of each step.
         """
+        done = 0
+        while done < n_steps:
+            part = None if com is None else com[done: done + CHECK_EVERY]
+            done += self._advance(self.steps + done, min(CHECK_EVERY, n_steps - done), part)
+            reason = self.check()
+            if reason:
+                self.steps += done
+                return reason
+        self.steps += n_steps
+        if self.stepper is not None:
+            self._kinematics()
+        return ""
+
+    def _advance(self, first: int, n_steps: int, com: np.ndarray | None) -> int:
+        """Advance up to `n_steps` steps from step `first` (counted from the start of the
+        simulation; fewer after a bad value in the native stepper) and return how many: in C where nothing is left to do in Python between steps (the
+        native stepper, or ``mj_step`` without muscles to drive or a path to record), else
+        one ``mj_step`` at a time; `com` as in `run`."""
         model, data = self.model, self.data
+        if self.stepper is not None:
+            part = None if com is None else np.empty((n_steps, 3))
+            n_steps = self.stepper.step(n_steps, part)
+            if com is not None:
+                com[:n_steps] = part[:n_steps]
+            return n_steps
+        if com is None and self._muscles is None:
+            mujoco.mj_step(model, data, nstep=n_steps)
+            return n_steps
         dt = model.opt.timestep
-        drive = self._muscles is not None
-        if self.stepper is not None or (com is None and not drive):
-            # nothing to do in Python between checks: the steps run in C
-            done = 0
-            while done < n_steps:
-                chunk = min(CHECK_EVERY, n_steps - done)
-                if self.stepper is None:
-                    mujoco.mj_step(model, data, nstep=chunk)
-                else:
-                    part = None if com is None else np.empty((chunk, 3))
-                    chunk = self.stepper.step(chunk, part)  # fewer after a bad value
-                    if com is not None:
-                        com[done: done + chunk] = part[:chunk]
-                done += chunk
-                reason = self.check()
-                if reason:
-                    self.steps += done
-                    return reason
-            self.steps += n_steps
-            if self.stepper is not None:
-                self._kinematics()
-            return ""
         for k in range(n_steps):
-            if drive:
-                plus, minus = self.strains((self.steps + k) * dt)
-                axial = self._base + self._plus * plus + self._minus * minus
-                rest = np.sqrt(axial * axial + self._lateral2)
-                self._rest[:] = rest[:, None]
+            if self._muscles is not None:
+                self._drive_muscles((first + k) * dt)
             mujoco.mj_step(model, data)
             if com is not None:
                 com[k] = data.subtree_com[0]
-            if (k + 1) % CHECK_EVERY == 0 or k + 1 == n_steps:
-                reason = self.check()
-                if reason:
-                    self.steps += k + 1
-                    return reason
-        self.steps += n_steps
-        return ""
+        return n_steps
+
+    def _drive_muscles(self, t: float) -> None:
+        """Set the muscle tendons' rest lengths for time `t` (s): the pure-MuJoCo
+        pipeline's muscle drive."""
+        plus, minus = self.strains(t)
+        axial = self._base + self._plus * plus + self._minus * minus
+        rest = np.sqrt(axial * axial + self._lateral2)
+        self._rest[:] = rest[:, None]
 
     def _kinematics(self) -> None:
         """Positions, frames, centres of mass and their velocities (``xpos``, ``subtree_com``,
