@@ -164,9 +164,10 @@ class Simulation:
 
     def _advance(self, first: int, n_steps: int, com: np.ndarray | None) -> int:
         """Advance up to `n_steps` steps from step `first` (counted from the start of the
-        simulation; fewer after a bad value in the native stepper) and return how many: in C where nothing is left to do in Python between steps (the
-        native stepper, or ``mj_step`` without muscles to drive or a path to record), else
-        one ``mj_step`` at a time; `com` as in `run`."""
+        simulation; fewer after a bad value in the native stepper) and return how many: in C
+        where nothing is left to do in Python between steps (the native stepper, or
+        ``mj_step`` without muscles to drive or a path to record), else one ``mj_step`` at a
+        time; `com` as in `run`."""
         model, data = self.model, self.data
         if self.stepper is not None:
             part = None if com is None else np.empty((n_steps, 3))
