@@ -101,7 +101,6 @@ def short_run(args: argparse.Namespace) -> dict:
     wall = time.perf_counter()
     with make_backend("process", workers=2) as backend:
         run_evolution(task, ga, seed=args.seed, out=args.out, backend=backend, force=True,
-                      task_config={"benchmark": "short-run", "ga": ga.to_dict()},
                       on_generation=lambda row: rows.append(dict(row)))
     wall = time.perf_counter() - wall
     per_generation = [float(row["wall_time"]) for row in rows]

@@ -63,6 +63,9 @@ class RecordingTask:
     def lowest_fitness(self) -> float:
         return self.task.lowest_fitness
 
+    def to_config(self) -> dict:
+        return self.task.to_config()
+
     def evaluate(self, genomes, backend):
         result = self.task.evaluate(genomes, backend)
         folder = self.out / "evaluations"
@@ -98,7 +101,7 @@ def run_all(args: argparse.Namespace) -> None:
                 recording = RecordingTask(task, out, finished_steps(out) if resume else 0)
                 start = time.perf_counter()
                 common = dict(seed=seed, out=out, backend=backend,
-                              task_config=task.to_config(), resume=resume,
+                              resume=resume,
                               progress=not args.quiet)
                 if method == "ga":
                     run_evolution(recording, ga, **common)

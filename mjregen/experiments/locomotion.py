@@ -48,8 +48,7 @@ def evolve_locomotion(*, out: str | Path, nca: NCAConfig, ga: GAConfig, seed: in
     task = LocomotionTask(nca=nca, physics=physics or Physics(), duration=duration,
                           starts=starts, start_seed=seed if start_seed is None else start_seed)
     return run_evolution(task, ga, seed=seed, out=out, backend=backend,
-                         task_config=task.to_config(), resume=resume, force=force,
-                         progress=progress)
+                         resume=resume, force=force, progress=progress)
 
 
 def evolve_grow_regrow(*, out: str | Path, nca: NCAConfig, ga: GAConfig, seed: int,
@@ -66,8 +65,7 @@ def evolve_grow_regrow(*, out: str | Path, nca: NCAConfig, ga: GAConfig, seed: i
                           starts=starts, start_seed=seed if start_seed is None else start_seed,
                           cut=cut, cell_cost=cell_cost)
     return run_evolution(task, ga, seed=seed, out=out, backend=backend,
-                         task_config=task.to_config(), resume=resume, force=force,
-                         progress=progress)
+                         resume=resume, force=force, progress=progress)
 
 
 def task_from_config(config: dict) -> LocomotionTask | GrowRegrowTask:
@@ -94,8 +92,7 @@ def map_elites_locomotion(*, out: str | Path, nca: NCAConfig, config: MapElitesC
     task = LocomotionTask(nca=nca, physics=physics or Physics(), duration=duration,
                           starts=starts, start_seed=seed if start_seed is None else start_seed)
     return run_map_elites(task, config, seed=seed, out=out, backend=backend,
-                          task_config=task.to_config(), resume=resume, force=force,
-                          progress=progress)
+                          resume=resume, force=force, progress=progress)
 
 
 def _stored_config(out: str | Path) -> tuple[Path, dict]:

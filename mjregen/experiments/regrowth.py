@@ -165,29 +165,24 @@ def run_regrowth(*, source: RegrowthSource, out: str | Path, damage: str | None 
                            "--damage")
     config = NCAConfig(dim=source.robot.dim, kind=net)
     task = RegrowthTask(nca=config, original=np.asarray(source.robot.grid),
-                        damaged=CAState(damaged.state, damaged.alpha, None))
-    task_config = {
-        "task": "regrowth", "nca": config.to_dict(), "source": source.label,
-        "start": source.start, "damage": damage or "paper cut",
-        "original": source.robot.grid.tolist(), "damaged_state": damaged.state[0].tolist(),
-        "damaged_alpha": damaged.alpha[0].tolist(),
-    }
+                        damaged=CAState(damaged.state, damaged.alpha, None),
+                        provenance={"source": source.label, "start": source.start,
+                                    "damage": damage or "paper cut"})
     with RunLock(out):  # the GA run and the files written after it
-        return _regrow_and_walk(task, ga, task_config, out=out, seed=seed, name=name,
+        return _regrow_and_walk(task, ga, out=out, seed=seed, name=name,
                                 damaged=damaged, source=source, physics=physics,
                                 duration=duration, resume=resume, force=force,
                                 progress=progress)
 
 
-def _regrow_and_walk(task: RegrowthTask, ga: GAConfig, task_config: dict, *, out: Path,
+def _regrow_and_walk(task: RegrowthTask, ga: GAConfig, *, out: Path,
                      seed: int, name: str, damaged: CAState, source: RegrowthSource,
                      physics: Physics | None, duration: float | None, resume: bool,
                      force: bool, progress: bool) -> RegrowthRun:
     """`run_regrowth`'s GA run and the files and walks after it (the folder held)."""
     config = task.nca
-    summary = run_evolution(task, ga, seed=seed, out=out,
-                            backend=SerialBackend(), task_config=task_config, resume=resume,
-                            force=force, progress=progress)
+    summary = run_evolution(task, ga, seed=seed, out=out, backend=SerialBackend(),
+                            resume=resume, force=force, progress=progress)
     regrowth = task.regrow(summary.best_genome)
     robots = {"original": source.robot,
               "damaged": damaged_robot(damaged),
@@ -197,8 +192,8 @@ def _regrow_and_walk(task: RegrowthTask, ga: GAConfig, task_config: dict, *, out
     save_nca(out / REGROWTH_FILE, NCA(config, summary.best_genome), overwrite=True, metadata={
         "robot": name, "similarity": int(summary.best_fitness),
         "generation": summary.best_generation, "seed": seed, "ga": ga.to_dict(),
-        **{key: task_config[key] for key in ("source", "start", "damage", "original",
-                                              "damaged_state", "damaged_alpha")}})
+        **{key: value for key, value in task.to_config().items()
+           if key not in ("task", "nca")}})
     report = measure_recovery(robots, physics=physics, duration=duration)
     write_report(report, out, name=name)
     return RegrowthRun(summary, robots, regrowth, report)

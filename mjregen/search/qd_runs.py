@@ -91,7 +91,7 @@ class QDRunSummary:
 
 
 def run_map_elites(task: QDTask, config: MapElitesConfig, *, seed: int, out: str | Path,
-                   backend: Backend, task_config: dict, resume: bool = False,
+                   backend: Backend, resume: bool = False,
                    force: bool = False, progress: bool = True,
                    on_iteration: Callable[[dict], None] | None = None) -> QDRunSummary:
     """Search `task` with MAP-Elites, writing the run folder `out` (module docstring).
@@ -102,7 +102,6 @@ def run_map_elites(task: QDTask, config: MapElitesConfig, *, seed: int, out: str
       seed: seeds every random generator of the search.
       out: the run folder.
       backend: where simulations run; results do not depend on it.
-      task_config: JSON description of `task`, stored in config.json and compared on resume.
       resume, force: as for `mjregen.search.runs.run_evolution`.
       progress: a tqdm bar with the QD score and the best fitness.
       on_iteration: called with each iteration's metrics row.
@@ -120,7 +119,7 @@ def run_map_elites(task: QDTask, config: MapElitesConfig, *, seed: int, out: str
     import_ribs()  # before anything is written
     out = Path(out)
     run_config = {
-        "format": RUN_FORMAT, "task": task_config, "map_elites": config.to_dict(),
+        "format": RUN_FORMAT, "task": task.to_config(), "map_elites": config.to_dict(),
         "seed": int(seed), "mjregen_version": __version__,
         "created": datetime.now(timezone.utc).isoformat(),
     }

@@ -73,6 +73,9 @@ class Task(Protocol):
 
     def evaluate(self, genomes: np.ndarray, backend: Backend) -> PopulationEvaluation: ...
 
+    def to_config(self) -> dict:
+        """The task as JSON: config.json's "task" entry, compared on resume."""
+
 
 @dataclass(frozen=True)
 class RunSummary:
@@ -202,7 +205,6 @@ def run_evolution(
     seed: int,
     out: str | Path,
     backend: Backend,
-    task_config: dict,
     resume: bool = False,
     force: bool = False,
     progress: bool = True,
@@ -216,7 +218,6 @@ def run_evolution(
       seed: seeds the GA (the only random thing in a run).
       out: the run folder.
       backend: where simulations run; results do not depend on it.
-      task_config: JSON description of `task`, stored in config.json and compared on resume.
       resume: continue the run in `out` (its settings must equal these).
       force: delete the run in `out` first (only a run folder is ever deleted).
       progress: show a tqdm bar with the current best.
@@ -231,7 +232,7 @@ def run_evolution(
         raise ValueError(f"seed must be a whole number >= 0, got {seed!r}")
     out = Path(out)
     config = {
-        "format": RUN_FORMAT, "task": task_config, "ga": ga_config.to_dict(), "seed": seed,
+        "format": RUN_FORMAT, "task": task.to_config(), "ga": ga_config.to_dict(), "seed": seed,
         "mjregen_version": __version__, "created": datetime.now(timezone.utc).isoformat(),
     }
     with RunLock(out):

@@ -155,6 +155,8 @@ class RegrowthTask:
       damaged: the damaged CA state (a population of one). A feed-forward regrowth NCA
         ignores its memory; an LSTM one starts with fresh memory (ones), as the paper's code
         does, since the damaged state's memory belongs to another network.
+      provenance: where `original` and the damage came from, as JSON (e.g. the source file,
+        how its CA state was made, the damage condition); part of `to_config`.
       cache_size: regrown grids kept across generations by genome (least recently used
         dropped first): the GA's elites are not regrown again. Growth is deterministic and
         each individual's alone or in a batch, so the cache changes no result.
@@ -163,9 +165,18 @@ class RegrowthTask:
     nca: NCAConfig
     original: np.ndarray
     damaged: CAState
+    provenance: dict = field(default_factory=dict, compare=False)
     cache_size: int = 5_000
     _cache: OrderedDict = field(default_factory=OrderedDict, init=False, repr=False,
                                 compare=False)
+
+    def to_config(self) -> dict:
+        """The task as JSON (a run folder's config.json "task" entry): the NCA, the
+        provenance, the original grid and the damaged state."""
+        return {"task": "regrowth", "nca": self.nca.to_dict(), **self.provenance,
+                "original": np.asarray(self.original).tolist(),
+                "damaged_state": self.damaged.state[0].tolist(),
+                "damaged_alpha": self.damaged.alpha[0].tolist()}
 
     def start(self, population: int) -> CAState:
         """The damaged state repeated for `population` individuals."""

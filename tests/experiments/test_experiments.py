@@ -85,7 +85,7 @@ def kill_after(job: ex.EvolutionJob, generation: int) -> None:
     task = LocomotionTask(nca=job.condition.nca, physics=job.physics, duration=job.duration)
     with pytest.raises(Killed):
         run_evolution(task, job.ga, seed=job.seed, out=job.out, backend=SerialBackend(),
-                      task_config=task.to_config(), progress=False, on_generation=kill)
+                      progress=False, on_generation=kill)
 
 
 def test_tiny_run_resumes_and_matches_its_printed_command(tmp_path):

@@ -9,6 +9,7 @@ import pytest
 from mjregen.errors import MjregenError
 from mjregen.experiments.regrowth import regrowth_source, run_regrowth
 from mjregen.grid import Robot
+from mjregen.growth.checkpoint import load_nca
 from mjregen.growth.nca import NCAConfig
 from mjregen.physics import Physics
 from mjregen.resources import asset
@@ -47,3 +48,7 @@ def test_run_regrowth_returns_what_it_writes(tmp_path):
     config = json.loads((tmp_path / "run" / "config.json").read_text())
     assert config["task"]["damage"] == "paper cut"
     assert config["task"]["nca"] == NCAConfig(dim=2, kind="ff").to_dict()
+    assert config["task"]["original"] == original.tolist()
+    metadata = load_nca(tmp_path / "run" / "regrowth.npz")[1]  # what it regrows, as run
+    for key in ("source", "start", "damage", "original", "damaged_state", "damaged_alpha"):
+        assert metadata[key] == config["task"][key], key

@@ -21,7 +21,7 @@ LONGER = GA.with_overrides(generations=12)
 
 def run(out, **kwargs):
     return run_evolution(SphereTask(), LONGER, seed=3, out=out, backend=SerialBackend(),
-                         task_config={"task": "sphere"}, progress=False, **kwargs)
+                         progress=False, **kwargs)
 
 
 def _slow_writes_then_run(out: str, resume: bool, force: bool) -> None:

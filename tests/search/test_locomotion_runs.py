@@ -27,7 +27,7 @@ def evolve(out, backend, **kwargs):
     task = LocomotionTask(nca=NCAConfig(dim=2, kind="ff"), physics=QUICK, duration=0.02,
                           starts=2, start_seed=7)
     return run_evolution(task, GA, seed=7, out=out, backend=backend,
-                         task_config=task.to_config(), progress=False, **kwargs)
+                         progress=False, **kwargs)
 
 
 def rows(out):

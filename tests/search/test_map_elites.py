@@ -26,6 +26,9 @@ class SphereTask:
     """Fitness = -|genome - 0.05|² (cheap, deterministic); robots grown for real (2D)."""
 
     nca = NCAConfig(dim=2, kind="ff")
+
+    def to_config(self):
+        return {"task": "sphere"}
     lowest_fitness = -1e3
 
     def evaluate(self, genomes, backend):
@@ -39,7 +42,7 @@ class Killed(Exception):
 
 def run(out, config=CONFIG, **kwargs):
     return run_map_elites(SphereTask(), config, seed=5, out=out, backend=SerialBackend(),
-                          task_config={"task": "sphere"}, progress=False, **kwargs)
+                          progress=False, **kwargs)
 
 
 def rows(out):

@@ -84,7 +84,7 @@ def test_a_config_edited_during_the_run_is_refused_on_resume(tmp_path):
         run(out, on_generation=edit_then_die)
     with pytest.raises(RunFolderError, match="changed since the run wrote"):
         run_evolution(SphereTask(), GA, seed=4, out=out, backend=SerialBackend(),
-                      task_config={"task": "sphere"}, progress=False, resume=True)
+                      progress=False, resume=True)
 
 
 def killed_after_two(out):

@@ -22,6 +22,9 @@ class SphereTask:
 
     nca = NCAConfig(dim=2, kind="ff")
 
+    def to_config(self):
+        return {"task": "sphere"}
+
     def evaluate(self, genomes, backend):
         fitness = -((genomes.astype(np.float64) - 0.05) ** 2).sum(axis=1)
         grids = grow(self.nca, genomes).grids
@@ -35,7 +38,7 @@ class Killed(Exception):
 
 def run(out, **kwargs):
     return run_evolution(SphereTask(), GA, seed=3, out=out, backend=SerialBackend(),
-                         task_config={"task": "sphere"}, progress=False, **kwargs)
+                         progress=False, **kwargs)
 
 
 def metrics(out):
@@ -91,7 +94,7 @@ def test_existing_runs_are_never_overwritten(tmp_path):
     assert (out / "metrics.csv").read_bytes() == before
     with pytest.raises(RunFolderError, match="different settings"):
         run_evolution(SphereTask(), GA, seed=4, out=out, backend=SerialBackend(),
-                      task_config={"task": "sphere"}, progress=False, resume=True)
+                      progress=False, resume=True)
     with pytest.raises(RunFolderError, match="nothing to resume"):
         run(tmp_path / "empty", resume=True)
     run(out, force=True)
