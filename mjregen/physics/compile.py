@@ -15,7 +15,7 @@ from typing import Iterable, Sequence
 import mujoco
 import numpy as np
 
-from mjregen.errors import CompileError, PhysicsParameterError
+from mjregen.errors import CompileError
 from mjregen.grid import Robot
 from mjregen.physics import mjcf, start_state, timestep
 from mjregen.physics.builders import builder_for

@@ -9,7 +9,7 @@ The folder holds
                   descriptors' names, ranges and cells and the NCA's configuration
   best.npz, best.npy   the best elite so far as an NCA checkpoint, and its robot
   heatmap.png     fitness of each cell's elite; qd.png: QD score and coverage per iteration
-                  (both redrawn every PLOT_EVERY s and after the last iteration)
+                  (both redrawn every `run_loop.PLOT_EVERY` s and after the last iteration)
   checkpoint.npz  the search after the last finished iteration (its ribs scheduler, pickled),
                   written atomically, with the hash of config.json
   errors.log      the evaluations that failed (only when some failed)
@@ -24,7 +24,6 @@ replaces them).
 from __future__ import annotations
 
 import json
-import time
 import zipfile
 from dataclasses import dataclass
 from datetime import datetime, timezone
@@ -32,9 +31,8 @@ from pathlib import Path
 from typing import Callable, Protocol
 
 import numpy as np
-from tqdm import tqdm
 
-from mjregen import __version__, interrupt
+from mjregen import __version__
 from mjregen.errors import CheckpointError
 from mjregen.fileio import atomic_open
 from mjregen.grid import Robot
@@ -50,21 +48,17 @@ from mjregen.search.map_elites import (
 )
 from mjregen.search.run_folder import (
     RUN_FORMAT,
-    RunFailedError,
     RunFolderError,
-    check_agreement,
     config_hash,
-    log_failures,
     prepare_folder,
     read_metrics,
-    write_metrics,
 )
 from mjregen.search.run_lock import RunLock
+from mjregen.search.run_loop import run_steps
 from mjregen.search.runs import Task
 from mjregen.tasks.descriptors import describe, descriptor_ranges
 from mjregen.tasks.evaluation import PopulationEvaluation
 
-PLOT_EVERY = 10.0  # s of wall time between redraws of the pictures (and after the last)
 QD_METRICS = ("iteration", "qd_score", "coverage", "elites", "best", "batch_best",
               "batch_mean", "unstable", "failed", "distinct", "evaluations", "evals_per_s",
               "wall_time", "elapsed")
@@ -138,67 +132,75 @@ def run_map_elites(task: QDTask, config: MapElitesConfig, *, seed: int, out: str
             search = MapElites(config, task.nca.genome_size, ranges=ranges, seed=int(seed),
                                qd_score_offset=task.lowest_fitness,
                                extra_fields={"grid": (shape, np.int8)})
-        return _iterations(task, search, out=out, backend=backend, seed=int(seed),
-                           ranges=ranges, started_with=started_with, progress=progress,
-                           on_iteration=on_iteration)
+        steps = IterationSteps(search, task=task, out=out, seed=int(seed), ranges=ranges,
+                               started_with=started_with)
+        run_steps(steps, task, out=out, backend=backend, progress=progress,
+                  description=f"MAP-Elites {out.name}", unit="it", on_step=on_iteration)
+        return steps.summary()
 
 
-def _iterations(task: QDTask, search: MapElites, *, out: Path, backend: Backend, seed: int,
-                ranges: list[tuple[float, float]], started_with: str, progress: bool,
-                on_iteration: Callable[[dict], None] | None) -> QDRunSummary:
-    """Run `search`'s remaining iterations into `out` (its metrics and checkpoint must agree:
-    `check_agreement`; a missing archive.npz is written again from the checkpoint's state)."""
-    config = search.config
-    rows = read_metrics(out / "metrics.csv", "iteration", search.iteration)
-    check_agreement(out, rows, search.iteration, "iteration")
-    if search.iteration and not (out / "archive.npz").is_file():  # restored from the state
-        save_archive(out / "archive.npz", search.snapshot(), config, ranges, task.nca)
-    elapsed = float(rows[-1]["elapsed"]) if rows else 0.0
-    last_plot = -np.inf
-    bar = tqdm(total=config.iterations, initial=search.iteration, disable=not progress,
-               desc=f"MAP-Elites {out.name}", unit="it")
-    while search.iteration < config.iterations:
-        interrupt.check()
-        start = time.perf_counter()
-        iteration = search.iteration
-        genomes = search.ask()
-        result = task.evaluate(genomes, backend)
-        if result.errors:
-            log_failures(out / "errors.log", iteration, result, progress=progress,
-                         label="iteration")
-        if np.all(result.failed):
-            raise RunFailedError(
-                f"every evaluation of iteration {iteration} failed, e.g. {result.errors[0]} "
-                f"(tracebacks in {out / 'errors.log'}); the run stops, its checkpoint holds "
-                "the last good iteration")
-        best_before = search.stats()["best"]
-        search.tell(result.fitness, describe(result.grids, config.descriptors),
+class IterationSteps:
+    """MAP-Elites' side of a run folder (`mjregen.search.run_loop.SearchSteps`): the archive,
+    the best elite, the heatmap and QD curves, and the checkpoint."""
+
+    counter = "iteration"
+    columns = QD_METRICS
+
+    def __init__(self, search: MapElites, *, task: QDTask, out: Path, seed: int,
+                 ranges: list[tuple[float, float]], started_with: str) -> None:
+        self.search, self._task, self._out, self._seed = search, task, out, seed
+        self._ranges, self._started_with = ranges, started_with
+
+    @property
+    def done(self) -> int:
+        return self.search.iteration
+
+    @property
+    def total(self) -> int:
+        return self.search.config.iterations
+
+    def restore(self) -> None:
+        """A missing archive.npz is written again from the checkpoint's state."""
+        if self.done and not (self._out / "archive.npz").is_file():
+            save_archive(self._out / "archive.npz", self.search.snapshot(), self.search.config,
+                         self._ranges, self._task.nca)
+
+    def ask(self) -> np.ndarray:
+        return self.search.ask()
+
+    def tell(self, genomes: np.ndarray, result: PopulationEvaluation) -> None:
+        search, out = self.search, self._out
+        iteration, best_before = search.iteration, search.stats()["best"]
+        search.tell(result.fitness, describe(result.grids, search.config.descriptors),
                     grid=result.grids)
-        snapshot = search.snapshot()
-        save_archive(out / "archive.npz", snapshot, config, ranges, task.nca)
-        stats = search.stats()
+        self._snapshot = snapshot = search.snapshot()
+        save_archive(out / "archive.npz", snapshot, search.config, self._ranges, self._task.nca)
+        self._stats = stats = search.stats()
         if not stats["best"] <= best_before:  # improved (or the first iteration)
-            _save_best(out, task.nca, snapshot, seed=int(seed), iteration=iteration)
-        wall = time.perf_counter() - start
-        elapsed += wall
-        rows.append(_metrics_row(stats, result, iteration=iteration, wall=wall,
-                                 elapsed=elapsed))
-        write_metrics(out / "metrics.csv", QD_METRICS, rows)
-        if time.perf_counter() - last_plot > PLOT_EVERY or search.iteration == config.iterations:
-            archive_heatmap(snapshot.fitness_grid(), config.descriptors, ranges,
-                            out / "heatmap.png", title=out.name)
-            qd_curves(rows, out / "qd.png", title=out.name)
-            last_plot = time.perf_counter()
-        _checkpoint_save(out / "checkpoint.npz", search, started_with)
-        bar.set_postfix(qd=f"{stats['qd_score']:.1f}", best=f"{stats['best']:.3f}")
-        bar.update(1)
-        if on_iteration is not None:
-            on_iteration(rows[-1])
-    bar.close()
-    stats = search.stats()
-    return QDRunSummary(out=out, iterations=search.iteration, best_fitness=stats["best"],
-                        qd_score=stats["qd_score"], coverage=stats["coverage"],
-                        elites=stats["elites"])
+            _save_best(out, self._task.nca, snapshot, seed=self._seed, iteration=iteration)
+
+    def metrics_row(self, result: PopulationEvaluation, *, step: int, wall: float,
+                    elapsed: float) -> dict:
+        return _metrics_row(self._stats, result, iteration=step, wall=wall, elapsed=elapsed)
+
+    def draw(self, rows: list[dict]) -> None:
+        out = self._out
+        archive_heatmap(self._snapshot.fitness_grid(), self.search.config.descriptors,
+                        self._ranges, out / "heatmap.png", title=out.name)
+        qd_curves(rows, out / "qd.png", title=out.name)
+
+    def save_checkpoint(self) -> None:
+        _checkpoint_save(self._out / "checkpoint.npz", self.search, self._started_with)
+
+    def postfix(self) -> dict[str, str]:
+        return {"qd": f"{self._stats['qd_score']:.1f}", "best": f"{self._stats['best']:.3f}"}
+
+    def summary(self) -> QDRunSummary:
+        """The run's outcome so far."""
+        stats = self.search.stats()
+        return QDRunSummary(out=self._out, iterations=self.done, best_fitness=stats["best"],
+                            qd_score=stats["qd_score"], coverage=stats["coverage"],
+                            elites=stats["elites"])
 
 
 def _finished_record(out: Path, iterations: int) -> QDRunSummary | None:

@@ -23,7 +23,6 @@ that holds an mjregen run. A generation in which every evaluation failed stops t
 from __future__ import annotations
 
 import json
-import time
 import zipfile
 from dataclasses import dataclass
 from datetime import datetime, timezone
@@ -31,9 +30,8 @@ from pathlib import Path
 from typing import Callable, Protocol
 
 import numpy as np
-from tqdm import tqdm
 
-from mjregen import __version__, interrupt
+from mjregen import __version__
 from mjregen.errors import CheckpointError
 from mjregen.fileio import atomic_open
 from mjregen.grid import Robot
@@ -44,20 +42,16 @@ from mjregen.search.backends import Backend
 from mjregen.search.ga import GAConfig, GeneticAlgorithm
 from mjregen.search.run_folder import (
     RUN_FORMAT,
-    RunFailedError,
     RunFolderError,
-    check_agreement,
     check_restartable,
     config_hash,
-    log_failures,
     prepare_folder,
     read_metrics,
-    write_metrics,
 )
 from mjregen.search.run_lock import RunLock
+from mjregen.search.run_loop import run_steps
 from mjregen.tasks.evaluation import PopulationEvaluation
 
-PLOT_EVERY = 10.0  # s of wall time between redraws of fitness.png (and after the last generation)
 METRICS = ("generation", "best", "mean", "median", "std", "unstable", "failed", "distinct",
            "evaluations", "evals_per_s", "wall_time", "elapsed", "best_distance_min",
            "best_distance_std")
@@ -249,63 +243,74 @@ def run_evolution(
         else:
             ga = GeneticAlgorithm(ga_config, task.nca.genome_size, seed=seed)
             best = {"best_fitness": -np.inf, "best_generation": -1, "best_genome": None}
-        return _generations(task, ga, best, out=out, backend=backend, seed=seed,
-                            started_with=started_with, progress=progress,
-                            on_generation=on_generation)
+        steps = GenerationSteps(ga, best, task=task, out=out, seed=seed,
+                                started_with=started_with)
+        run_steps(steps, task, out=out, backend=backend, progress=progress,
+                  description=f"evolving {out.name}", unit="gen", on_step=on_generation)
+        return steps.summary()
 
 
-def _generations(task: Task, ga: GeneticAlgorithm, best: dict, *, out: Path, backend: Backend,
-                 seed: int, started_with: str, progress: bool,
-                 on_generation: Callable[[dict], None] | None) -> RunSummary:
-    """Run `ga`'s remaining generations into `out` (its metrics, best/ and checkpoint must
-    agree on the generation: `check_agreement`)."""
-    ga_config = ga.config
-    rows = read_metrics(out / "metrics.csv", "generation", ga.generation)
-    check_agreement(out, rows, ga.generation, "generation")
-    last = out / "best" / f"gen_{ga.generation - 1:04d}.npz"
-    if ga.generation and not last.is_file():
-        raise RunFolderError(f"{out}: checkpoint.npz is at generation {ga.generation} but {last} "
-                             "is missing: restore it from a copy, or start the run again with "
-                             "force")
-    elapsed = float(rows[-1]["elapsed"]) if rows else 0.0
-    (out / "best").mkdir(exist_ok=True)
-    last_plot = -np.inf
-    bar = tqdm(total=ga_config.generations, initial=ga.generation, disable=not progress,
-               desc=f"evolving {out.name}", unit="gen")
-    while ga.generation < ga_config.generations:
-        interrupt.check()
-        start = time.perf_counter()
-        generation = ga.generation
-        population = ga.ask()
-        result = task.evaluate(population, backend)
-        if result.errors:
-            log_failures(out / "errors.log", generation, result, progress=progress)
-        if np.all(result.failed):
-            raise RunFailedError(
-                f"every evaluation of generation {generation} failed, e.g. {result.errors[0]} "
-                f"(tracebacks in {out / 'errors.log'}); the run stops, its checkpoint holds "
-                "the last good generation")
-        top = int(ga.tell(result.fitness)[0])
-        if result.fitness[top] > best["best_fitness"]:
-            best = {"best_fitness": float(result.fitness[top]), "best_generation": generation,
-                    "best_genome": population[top]}
-        _save_best(out / "best" / f"gen_{generation:04d}", task.nca, population[top], result,
-                   top, generation=generation, seed=seed)
-        wall = time.perf_counter() - start
-        elapsed += wall
-        rows.append(_metrics_row(result, generation=generation, top=top, wall=wall,
-                                elapsed=elapsed))
-        write_metrics(out / "metrics.csv", METRICS, rows)
-        fitness = result.fitness
-        if time.perf_counter() - last_plot > PLOT_EVERY or ga.generation == ga_config.generations:
-            plot_fitness(rows, out / "fitness.png", title=out.name)
-            last_plot = time.perf_counter()
-        _checkpoint_save(out / "checkpoint.npz", ga, best, started_with)
-        bar.set_postfix(best=f"{fitness.max():.3f}", overall=f"{best['best_fitness']:.3f}")
-        bar.update(1)
-        if on_generation is not None:
-            on_generation(rows[-1])
-    bar.close()
-    return RunSummary(out=out, generations=ga.generation, best_fitness=best["best_fitness"],
-                      best_generation=best["best_generation"],
-                      best_genome=np.asarray(best["best_genome"], dtype=np.float32))
+class GenerationSteps:
+    """The GA's side of a run folder (`mjregen.search.run_loop.SearchSteps`): each
+    generation's best in best/, the best ever evaluated, fitness.png and the checkpoint."""
+
+    counter = "generation"
+    columns = METRICS
+
+    def __init__(self, ga: GeneticAlgorithm, best: dict, *, task: Task, out: Path, seed: int,
+                 started_with: str) -> None:
+        self.ga, self.best, self._task, self._out = ga, best, task, out
+        self._seed, self._started_with = seed, started_with
+        self._genomes: np.ndarray | None = None
+
+    @property
+    def done(self) -> int:
+        return self.ga.generation
+
+    @property
+    def total(self) -> int:
+        return self.ga.config.generations
+
+    def restore(self) -> None:
+        last = self._out / "best" / f"gen_{self.done - 1:04d}.npz"
+        if self.done and not last.is_file():
+            raise RunFolderError(f"{self._out}: checkpoint.npz is at generation {self.done} but "
+                                 f"{last} is missing: restore it from a copy, or start the run "
+                                 "again with force")
+        (self._out / "best").mkdir(exist_ok=True)
+
+    def ask(self) -> np.ndarray:
+        return self.ga.ask()
+
+    def tell(self, genomes: np.ndarray, result: PopulationEvaluation) -> None:
+        generation = self.ga.generation
+        self._top = top = int(self.ga.tell(result.fitness)[0])
+        if result.fitness[top] > self.best["best_fitness"]:
+            self.best = {"best_fitness": float(result.fitness[top]),
+                         "best_generation": generation, "best_genome": genomes[top]}
+        _save_best(self._out / "best" / f"gen_{generation:04d}", self._task.nca, genomes[top],
+                   result, top, generation=generation, seed=self._seed)
+        self._generation_best = float(result.fitness.max())
+
+    def metrics_row(self, result: PopulationEvaluation, *, step: int, wall: float,
+                    elapsed: float) -> dict:
+        return _metrics_row(result, generation=step, top=self._top, wall=wall,
+                            elapsed=elapsed)
+
+    def draw(self, rows: list[dict]) -> None:
+        plot_fitness(rows, self._out / "fitness.png", title=self._out.name)
+
+    def save_checkpoint(self) -> None:
+        _checkpoint_save(self._out / "checkpoint.npz", self.ga, self.best, self._started_with)
+
+    def postfix(self) -> dict[str, str]:
+        return {"best": f"{self._generation_best:.3f}",
+                "overall": f"{self.best['best_fitness']:.3f}"}
+
+    def summary(self) -> RunSummary:
+        """The run's outcome so far."""
+        best = self.best
+        return RunSummary(out=self._out, generations=self.done,
+                          best_fitness=best["best_fitness"],
+                          best_generation=best["best_generation"],
+                          best_genome=np.asarray(best["best_genome"], dtype=np.float32))
