@@ -137,25 +137,14 @@ def compile_robot(
       start_seed: the evaluation's seed of those starts (>= 0).
     Raises:
       CompileError: empty robot, more than MAX_VOXELS voxels, a clamped index that is not a
-        voxel, negative elevation,
-        a start index or seed that is not a whole number >= 0, or no starts.
+        voxel, negative elevation, a start index or seed that is not a whole number >= 0, no
+        starts, drive "ctrl" without the voxel pipeline, or a failed time step estimate.
       PhysicsParameterError: the robot's materials have different Poisson ratios; the
         network time step without the plugin library.
       NativeBuildError: the voxel pipeline, and the plugin library cannot be built.
     """
     physics = Physics() if physics is None else physics
-    if not isinstance(robot, Robot):
-        raise CompileError(f"compile_robot needs a Robot, got {type(robot).__name__}")
-    if robot.is_empty:
-        raise CompileError("cannot compile an empty robot (it has no voxels)")
-    if robot.n_voxels > MAX_VOXELS:
-        raise CompileError(f"a robot of {robot.n_voxels:,} voxels is larger than mjregen "
-                           f"compiles ({MAX_VOXELS:,}: one MuJoCo body per voxel, and compile "
-                           "time grows with the square of their number)")
-    if not (math.isfinite(elevation) and elevation >= 0.0):
-        raise CompileError(f"elevation must be a finite height >= 0 m, got {elevation!r}")
-    if drive not in mjcf.DRIVES:
-        raise CompileError(f"drive must be one of {mjcf.DRIVES}, got {drive!r}")
+    _check_request(robot, elevation, drive)
     builder = builder_for(physics.pipeline)
     starts, start_seed = _checked_starts(starts, start_seed)
     layout = robot_layout(robot, physics, {tuple(int(i) for i in c) for c in clamped},
@@ -174,15 +163,7 @@ def compile_robot(
     rates = None
     if physics.pipeline.timestep_rule == "network" and layout.bonds:
         rates = network_rule_rates(model, layout, physics, table, beams)
-        step = physics.scene.timestep_safety * timestep.stable_step(*rates)
-        # a network is never stiffer than a block of its stiffest bond (measured: its step
-        # is 1.46-3.7 times the block's); far below that, the estimate itself failed
-        if not (math.isfinite(step) and step >= BLOCK_STEP_FLOOR * block_step):
-            raise CompileError(
-                f"the time step estimate of this robot failed: its bond network gave {step:.3g} "
-                f"s (rates {rates[0]:.3g} s^-2, {rates[1]:.3g} s^-1), a block of its stiffest "
-                f"bond {block_step:.3g} s; simulate it with timestep_rule='stiffest_bond'")
-        spec.option.timestep = round_like_mjcf(step)
+        spec.option.timestep = round_like_mjcf(_network_step(rates, physics, block_step))
         model.opt.timestep = spec.option.timestep
     body_ids = np.array([model.body(body.name).id for body in bodies])
     return CompiledRobot(
@@ -191,6 +172,38 @@ def compile_robot(
         muscles=muscles if builder.drives_muscle_tendons else None, n_bonds=len(layout.bonds),
         bonds=table, beams=beams, network_rates=rates, starts=starts, start_seed=start_seed,
         plugin_instance=builder.plugin_instance)
+
+
+def _check_request(robot: Robot, elevation: float, drive: str) -> None:
+    """CompileError unless `robot` is a non-empty `Robot` of at most MAX_VOXELS voxels,
+    `elevation` a finite height >= 0 and `drive` one of `mjcf.DRIVES`."""
+    if not isinstance(robot, Robot):
+        raise CompileError(f"compile_robot needs a Robot, got {type(robot).__name__}")
+    if robot.is_empty:
+        raise CompileError("cannot compile an empty robot (it has no voxels)")
+    if robot.n_voxels > MAX_VOXELS:
+        raise CompileError(f"a robot of {robot.n_voxels:,} voxels is larger than mjregen "
+                           f"compiles ({MAX_VOXELS:,}: one MuJoCo body per voxel, and compile "
+                           "time grows with the square of their number)")
+    if not (math.isfinite(elevation) and elevation >= 0.0):
+        raise CompileError(f"elevation must be a finite height >= 0 m, got {elevation!r}")
+    if drive not in mjcf.DRIVES:
+        raise CompileError(f"drive must be one of {mjcf.DRIVES}, got {drive!r}")
+
+
+def _network_step(rates: tuple[float, float], physics: Physics, block_step: float) -> float:
+    """s: the network rule's step from the network's `rates` (λ s⁻², μ s⁻¹), before rounding;
+    CompileError when it is not credible against `block_step` (s, a block of the robot's
+    stiffest bond)."""
+    step = physics.scene.timestep_safety * timestep.stable_step(*rates)
+    # a network is never stiffer than a block of its stiffest bond (measured: its step
+    # is 1.46-3.7 times the block's); far below that, the estimate itself failed
+    if not (math.isfinite(step) and step >= BLOCK_STEP_FLOOR * block_step):
+        raise CompileError(
+            f"the time step estimate of this robot failed: its bond network gave {step:.3g} "
+            f"s (rates {rates[0]:.3g} s^-2, {rates[1]:.3g} s^-1), a block of its stiffest "
+            f"bond {block_step:.3g} s; simulate it with timestep_rule='stiffest_bond'")
+    return step
 
 
 def _checked_starts(starts: Sequence[int], seed: int) -> tuple[tuple[int, ...], int]:
