@@ -7,6 +7,7 @@ evolution.
         [--backends serial process thread] [--json out.json]
     python benchmarks/evolution.py short-run [--pop 100] [--gens 5] [--out runs/short3d]
         [--json out.json]
+    python benchmarks/evolution.py profile [--pop 12] [--seed 0] [--json out.json]
 
 `backends` grows one 3D population (the paper's initial genes, so most robots are large
 blocks) and evaluates it serially, on 2 worker processes and on 2 threads: wall and CPU
@@ -14,13 +15,17 @@ time, evaluations per second, parallel efficiency, and the projected wall time o
 paper-size 3D run (100 x 300) at that rate. `short-run` runs a real evolution with the
 paper's 3D GA (generations reduced) on 2 worker processes: evaluations per second, the best
 fitness per generation and the projected wall time of the paper's 300 generations
-(`benchmarks/speed.py --evolution` puts it into docs/performance.md).
+(`benchmarks/speed.py --evolution` puts it into docs/performance.md). `profile` evaluates
+one 3D population serially under cProfile: the share of its CPU time in the steps, in
+`compile_robot` and in compile's parts (docs/gpu.md).
 """
 
 from __future__ import annotations
 
 import argparse
+import cProfile
 import json
+import pstats
 import time
 from dataclasses import dataclass, field
 
@@ -121,11 +126,48 @@ def short_run(args: argparse.Namespace) -> dict:
     return result
 
 
+PROFILED = {  # what `profile` reports: (file name end, function name)
+    "native steps": ("stepper.py", "step"),
+    "compile_robot": ("compile.py", "compile_robot"),
+    "compile: MuJoCo's spec.compile": ("~", "<built-in method mujoco._specs.compile>"),
+    "compile: network time step (Lanczos)": ("timestep.py", "largest_eigenvalue"),
+    "compile: the MjSpec's bodies": ("mjcf.py", "voxel_bodies"),
+    "compile: bond arrays": ("model.py", "bond_tables"),
+    "growth": ("nca.py", "grow"),
+}
+
+
+def profile(args: argparse.Namespace) -> dict:
+    """CPU shares of one 3D population's serial evaluation (the paper's initial genes)."""
+    task = LocomotionTask(nca=NCAConfig(dim=3, kind="ff"))
+    genomes = random_genomes(task.nca, args.pop, seed=args.seed)
+    profiler = cProfile.Profile()
+    cpu = time.process_time()
+    profiler.enable()
+    result = task.evaluate(genomes, make_backend("serial"))
+    profiler.disable()
+    cpu = time.process_time() - cpu
+    stats = pstats.Stats(profiler).stats
+    shares = {}
+    for label, (file_end, function) in PROFILED.items():
+        cumulative = sum(entry[3] for (path, _, name), entry in stats.items()
+                         if path.endswith(file_end) and name == function)
+        shares[label] = cumulative / cpu
+    voxels = result.details["voxels"]
+    print(f"3D ff population of {args.pop} (seed {args.seed}): {voxels.min():.0f}-"
+          f"{voxels.max():.0f} voxels, {cpu / args.pop:.3f} CPU s per robot")
+    for label, share in shares.items():
+        print(f"  {label}: {100 * share:.1f} %")
+    return {"population": args.pop, "seed": args.seed, "cpu_s_per_robot": cpu / args.pop,
+            "shares": shares}
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("mode", choices=("backends", "short-run"))
+    parser.add_argument("mode", choices=("backends", "short-run", "profile"))
     parser.add_argument("--pop", type=int, default=None,
-                        help="population (default: backends 20, short-run the paper's 100)")
+                        help="population (default: backends 20, profile 12, short-run the "
+                             "paper's 100)")
     parser.add_argument("--gens", type=int, default=5)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--out", default="runs/short3d")
@@ -141,8 +183,9 @@ def main() -> None:
     parser.add_argument("--json", help="also write the results here")
     args = parser.parse_args()
     if args.pop is None:
-        args.pop = 20 if args.mode == "backends" else PRESETS["3d"].population
-    results = backends(args) if args.mode == "backends" else short_run(args)
+        args.pop = {"backends": 20, "profile": 12}.get(args.mode, PRESETS["3d"].population)
+    modes = {"backends": backends, "short-run": short_run, "profile": profile}
+    results = modes[args.mode](args)
     if args.json:
         with open(args.json, "w") as handle:
             json.dump(results, handle, indent=2)
