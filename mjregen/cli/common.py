@@ -178,3 +178,27 @@ def _finite_or_none(value: object) -> object:
     if isinstance(value, float) and not math.isfinite(value):
         return None
     return value
+
+
+def task_settings(args: argparse.Namespace, task) -> dict[str, tuple]:
+    """The task and physics flags of a command resuming the run of `task` (a
+    `LocomotionTask`), each paired with what the run has: {flag: (given, run's)}."""
+    physics = task.physics
+    given = {"dim": (args.dim, task.nca.dim), "net": (args.net, task.nca.kind),
+             "duration": (args.duration, task.duration), "starts": (args.starts, task.starts),
+             "start-shift": (args.start_shift, physics.scene.start_shift),
+             "settle": (args.settle, physics.scene.settle_time),
+             "bonds": (args.bonds, getattr(physics.pipeline, "bond_element", None)),
+             "timestep-rule": (args.timestep_rule, physics.pipeline.timestep_rule)}
+    if args.physics is not None and physics_from_args(args) != physics:
+        given["physics"] = (args.physics, "other physics")
+    return given
+
+
+def refuse_other_settings(out: Path, given: dict[str, tuple]) -> None:
+    """MjregenError naming every flag of `given` ({flag: (given, run's)}) that was given
+    and differs from the run's in `out`."""
+    conflicts = [f"--{flag} {value} (run has {stored})" for flag, (value, stored) in given.items()
+                 if value is not None and value != stored]
+    if conflicts:
+        raise MjregenError(f"{out} was started with other settings: {', '.join(conflicts)}")

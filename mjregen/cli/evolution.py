@@ -14,8 +14,10 @@ from mjregen.cli.common import (
     ga_config,
     physics_from_args,
     print_json,
+    refuse_other_settings,
     seed,
     starts_count,
+    task_settings,
     workers,
 )
 from mjregen.cli.quality_diversity import (
@@ -154,24 +156,14 @@ def _stored_run(args: argparse.Namespace) -> tuple:
 
     task, ga, seed = stored_locomotion_run(args.out)
     regrows = isinstance(task, GrowRegrowTask)
-    given = {"task": (args.task, "grow-regrow" if regrows else "locomotion"),
-             "cut": (args.cut, task.cut if regrows else None),
-             "cell-cost": (args.cell_cost, task.cell_cost if regrows else None),
-             "dim": (args.dim, task.nca.dim), "net": (args.net, task.nca.kind),
-             "pop": (args.pop, ga.population), "gens": (args.gens, ga.generations),
-             "truncation": (args.truncation, ga.truncation), "elites": (args.elites, ga.elites),
-             "sigma": (args.sigma, ga.sigma), "seed": (args.seed, seed),
-             "duration": (args.duration, task.duration),
-             "starts": (args.starts, task.starts),
-             "start-shift": (args.start_shift, task.physics.scene.start_shift),
-             "settle": (args.settle, task.physics.scene.settle_time),
-             "bonds": (args.bonds, getattr(task.physics.pipeline, "bond_element", None)),
-             "timestep-rule": (args.timestep_rule, task.physics.pipeline.timestep_rule)}
-    if args.physics is not None and physics_from_args(args) != task.physics:
-        given["physics"] = (args.physics, "other physics")
-    conflicts = [f"--{k} {v} (run has {s})" for k, (v, s) in given.items() if v is not None and v != s]
-    if conflicts:
-        raise MjregenError(f"{args.out} was started with other settings: {', '.join(conflicts)}")
+    refuse_other_settings(args.out, {
+        "task": (args.task, "grow-regrow" if regrows else "locomotion"),
+        "cut": (args.cut, task.cut if regrows else None),
+        "cell-cost": (args.cell_cost, task.cell_cost if regrows else None),
+        "pop": (args.pop, ga.population), "gens": (args.gens, ga.generations),
+        "truncation": (args.truncation, ga.truncation), "elites": (args.elites, ga.elites),
+        "sigma": (args.sigma, ga.sigma), "seed": (args.seed, seed),
+        **task_settings(args, task)})
     return task, ga, seed
 
 

@@ -7,8 +7,14 @@ import json
 import sys
 from pathlib import Path
 
-from mjregen.cli.common import physics_from_args, print_json
+from mjregen.cli.common import (
+    physics_from_args,
+    print_json,
+    refuse_other_settings,
+    task_settings,
+)
 from mjregen.errors import MjregenError
+from mjregen.tasks.starts import DEFAULT_STARTS
 
 GA_ONLY = ("preset", "truncation", "elites")  # GA settings MAP-Elites has no use for
 SIGMA = {2: 0.03, 3: 0.1}  # the paper's GA mutation per --dim
@@ -103,12 +109,16 @@ def run_map_elites_command(args: argparse.Namespace) -> int:
     if args.resume:
         task, config, seed = _stored_run(args)
         nca, physics, duration = task.nca, task.physics, task.duration
+        starts, start_seed = task.starts, task.start_seed
     else:
         nca, config, seed = _new_run(args)
         physics, duration = physics_from_args(args), args.duration
+        starts = DEFAULT_STARTS if args.starts is None else args.starts
+        start_seed = seed
     with make_backend(args.backend, workers=args.workers, address=args.address) as backend:
         summary = map_elites_locomotion(out=args.out, nca=nca, config=config, seed=seed,
                                         backend=backend, physics=physics, duration=duration,
+                                        starts=starts, start_seed=start_seed,
                                         resume=args.resume, force=args.force,
                                         progress=not args.quiet)
     gallery = None
@@ -173,19 +183,11 @@ def _stored_run(args: argparse.Namespace) -> tuple:
     cells = args.cells
     if cells is not None and len(cells) == 1:
         cells = cells * len(config.descriptors)
-    given = {"dim": (args.dim, task.nca.dim), "net": (args.net, task.nca.kind),
-             "pop": (args.pop, config.batch), "gens": (args.gens, config.iterations),
-             "sigma": (args.sigma, config.sigma), "seed": (args.seed, seed),
-             "emitters": (args.emitters, config.emitters),
-             "emitter": (args.emitter, config.emitter),
-             "line-sigma": (args.line_sigma, config.line_sigma),
-             "descriptors": (args.descriptors, config.descriptors),
-             "cells": (cells, config.cells), "duration": (args.duration, task.duration),
-             "settle": (args.settle, task.physics.scene.settle_time)}
-    if args.physics is not None and physics_from_args(args) != task.physics:
-        given["physics"] = (args.physics, "other physics")
-    conflicts = [f"--{k} {v} (run has {s})" for k, (v, s) in given.items()
-                 if v is not None and v != s]
-    if conflicts:
-        raise MjregenError(f"{args.out} was started with other settings: {', '.join(conflicts)}")
+    refuse_other_settings(args.out, {
+        "pop": (args.pop, config.batch), "gens": (args.gens, config.iterations),
+        "sigma": (args.sigma, config.sigma), "seed": (args.seed, seed),
+        "emitters": (args.emitters, config.emitters), "emitter": (args.emitter, config.emitter),
+        "line-sigma": (args.line_sigma, config.line_sigma),
+        "descriptors": (args.descriptors, config.descriptors), "cells": (cells, config.cells),
+        **task_settings(args, task)})
     return task, config, seed

@@ -111,3 +111,16 @@ def test_evolve_stats_of_map_elites_runs(tmp_path, capsys):
     assert report["qd_score"]["me"]["runs"] == 2
     assert report["qd_score"]["me"]["mean"][-1] == pytest.approx(np.mean(finals))
     assert png.read_bytes()[:4] == b"\x89PNG"
+
+
+def test_starts_score_each_robot_and_a_resume_keeps_them(tmp_path, capsys):
+    """`--starts K` reaches the MAP-Elites task (config.json, the fitness of K starts); a
+    resume takes the run's starts, and refuses other ones."""
+    out = tmp_path / "run"
+    assert main(["evolve", *tiny(), "--gens", "1", "--starts", "2", "--backend", "serial",
+                 "--no-gallery", "--out", str(out)]) == 0
+    task = json.loads((out / "config.json").read_text())["task"]
+    assert (task["starts"], task["start_seed"]) == (2, 1)
+    assert main(["evolve", "--out", str(out), "--resume", "--starts", "3", "--quiet"]) == 1
+    assert "--starts 3 (run has 2)" in capsys.readouterr().err
+    assert main(["evolve", "--out", str(out), "--resume", "--quiet", "--no-gallery"]) == 0
