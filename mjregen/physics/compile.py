@@ -138,7 +138,8 @@ def compile_robot(
     Raises:
       CompileError: empty robot, more than MAX_VOXELS voxels, a clamped index that is not a
         voxel, negative elevation, a start index or seed that is not a whole number >= 0, no
-        starts, drive "ctrl" without the voxel pipeline, or a failed time step estimate.
+        starts or more than one with start shift 0, drive "ctrl" without the voxel pipeline,
+        or a failed time step estimate.
       PhysicsParameterError: the robot's materials have different Poisson ratios; the
         network time step without the plugin library.
       NativeBuildError: the voxel pipeline, and the plugin library cannot be built.
@@ -153,6 +154,9 @@ def compile_robot(
     spec, bodies = mjcf.voxel_bodies(layout, physics)
     builder.add_forces(spec, bodies, layout, physics, table, beams, drive)
     if physics.scene.start_shift == 0.0:
+        if len(starts) > 1:
+            raise CompileError(f"with start_shift 0 every start is the exact start: compile one "
+                               f"start, not {len(starts)}")
         starts = ()
     for index in starts:
         spec.add_key(name=start_state.key_name(index), qpos=start_state.start_qpos(

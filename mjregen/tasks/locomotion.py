@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from mjregen.growth.nca import NCAConfig, grow
-from mjregen.physics import Physics
+from mjregen.physics import Physics, PhysicsParameterError
 from mjregen.physics.start_state import check_start
 from mjregen.tasks.evaluation import (
     PopulationEvaluation,
@@ -62,6 +62,10 @@ class LocomotionTask:
         if isinstance(self.starts, bool) or not isinstance(self.starts, (int, np.integer)) \
                 or self.starts < 1:
             raise ValueError(f"starts must be a whole number >= 1, got {self.starts!r}")
+        if self.starts > 1 and self.physics.scene.start_shift == 0.0:
+            raise PhysicsParameterError(
+                f"{self.starts} starts need a start shift > 0: with start_shift 0 every start "
+                "is the exact start, the same walk each time")
         check_start("start_seed", self.start_seed)
 
     def to_config(self) -> dict:

@@ -261,3 +261,8 @@ def test_robot_commands_reject_bad_files(tmp_path, capsys, command):
         assert main(args) == 1
         err = capsys.readouterr().err
         assert err.startswith("mjregen: error:") and message in err and err.count("\n") == 1
+
+
+def test_walk_refuses_several_exact_starts(capsys):
+    assert main(["walk", WALKER, "--start-shift", "0", "--starts", "3"]) == 1
+    assert "every start is the exact start" in capsys.readouterr().err

@@ -141,3 +141,12 @@ def test_the_start_shift_survives_the_keyframes_digits(shift, share):
     offsets = (compiled.model.key_qpos[0] - compiled.model.qpos0).reshape(-1, 7)[:, :3] / 1e-3
     assert np.mean(offsets != 0.0) > share
     assert np.std(offsets) == pytest.approx(shift, rel=0.2)
+
+
+def test_more_than_one_exact_start_is_refused():
+    """With start shift 0 every start is the exact start: K of them would be one walk K
+    times (K times its cost), so compile, walk and the task refuse more than one."""
+    exact = Physics().replace(start_shift=0.0)
+    with pytest.raises(CompileError, match="every start is the exact start"):
+        compile_robot(Robot.box((2, 2, 2)), physics=exact, starts=(0, 1))
+    assert compile_robot(Robot.box((2, 2, 2)), physics=exact).starts == ()

@@ -225,3 +225,10 @@ def test_a_task_described_before_starts_reads_as_one_exact_start():
 def test_bad_starts_are_refused(kwargs):
     with pytest.raises(ValueError, match="start"):
         fresh_task(**kwargs)
+
+
+def test_several_exact_starts_are_refused():
+    """With start shift 0 every start is the exact start: two would be one walk twice."""
+    with pytest.raises(ValueError, match="need a start shift > 0"):
+        locomotion.LocomotionTask(nca=NCA, physics=QUICK.replace(start_shift=0.0), starts=2)
+    assert locomotion.LocomotionTask(nca=NCA, physics=QUICK.replace(start_shift=0.0)).starts == 1
