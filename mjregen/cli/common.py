@@ -16,10 +16,13 @@ if TYPE_CHECKING:
 
 
 def starts_count(text: str) -> int:
-    """argparse type of --starts: a whole number >= 1."""
+    """argparse type of --starts: a whole number from 1 to `MAX_STARTS`."""
+    from mjregen.physics.start_state import MAX_STARTS
+
     value = _whole(text, "starts")
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"starts is a whole number >= 1, got {text}")
+    if not 1 <= value <= MAX_STARTS:
+        raise argparse.ArgumentTypeError(f"starts is a whole number from 1 to {MAX_STARTS}, "
+                                         f"got {text}")
     return value
 
 

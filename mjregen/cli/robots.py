@@ -288,13 +288,23 @@ def add_export(subparsers: argparse._SubParsersAction) -> None:
         f"plugin library once: mujoco.mj_loadPluginLibrary('{library_path()}') (built on "
         "first use; mjregen.plugin_library() returns the path). With --physics sphere or "
         "box (pure MuJoCo) the muscles' tendons are the first ones in the file and their "
-        "rest lengths are rewritten every step by mjregen.physics.simulation.Simulation.",
+        "rest lengths are rewritten every step by mjregen.physics.simulation.Simulation. "
+        "The walk's starts are keyframes 'start_0' .. (mujoco.mj_resetDataKeyframe): "
+        "`walk --start-seed S --starts K` walks from the keyframes of `export --start-seed S "
+        "--starts K`.",
     )
     parser.add_argument("robot", type=Path, help="robot file (.npy)")
     add_physics_choice(parser)
     parser.add_argument("--settle", type=float,
                         help="s without actuation before the muscles start (default: the "
                              "paper's, 3D 0.05, 2D 1.0)")
+    parser.add_argument("--start-shift", type=float, metavar="S",
+                        help="voxel lengths, as for walk (default 1e-4; 0: no keyframes, the "
+                             "model starts exactly on the grid)")
+    parser.add_argument("--starts", type=starts_count, metavar="K",
+                        help="keyframes of starts 0 .. K-1 (default 1)")
+    parser.add_argument("--start-seed", type=seed,
+                        help="seed of the starts (default 0; an evolution uses its seed)")
     parser.add_argument("--out", type=Path, required=True, help="XML file to write")
     parser.add_argument("--force", action="store_true", help="overwrite --out if it exists")
     parser.set_defaults(handler=_export)
@@ -307,7 +317,8 @@ def _export(args: argparse.Namespace) -> int:
     robot = Robot.load(args.robot)
     if robot.is_empty:
         raise MjregenError(f"{args.robot} holds an empty robot: nothing to export")
-    compiled = compile_robot(robot, physics=physics_from_args(args))
+    compiled = compile_robot(robot, physics=physics_from_args(args),
+                             starts=range(args.starts or 1), start_seed=args.start_seed or 0)
     with atomic_open(args.out, "w", overwrite=args.force) as handle:
         handle.write(compiled.to_xml())
     print(f"wrote {args.out} ({robot.n_voxels} voxels, {compiled.pipeline} pipeline)")

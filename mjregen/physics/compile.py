@@ -219,6 +219,9 @@ def _checked_starts(starts: Sequence[int], seed: int) -> tuple[tuple[int, ...], 
         raise CompileError(str(error)) from None
     if not indices or len(set(indices)) != len(indices):
         raise CompileError(f"starts must be distinct indices, at least one, got {starts!r}")
+    if len(indices) > start_state.MAX_STARTS:
+        raise CompileError(f"{len(indices):,} starts are more than one model holds "
+                           f"({start_state.MAX_STARTS:,} keyframes)")
     return indices, seed
 
 

@@ -21,7 +21,7 @@ import numpy as np
 
 from mjregen.growth.nca import NCAConfig, grow
 from mjregen.physics import Physics, PhysicsParameterError
-from mjregen.physics.start_state import check_start
+from mjregen.physics.start_state import MAX_STARTS, check_start
 from mjregen.tasks.evaluation import (
     PopulationEvaluation,
     RobotJob,
@@ -62,6 +62,9 @@ class LocomotionTask:
         if isinstance(self.starts, bool) or not isinstance(self.starts, (int, np.integer)) \
                 or self.starts < 1:
             raise ValueError(f"starts must be a whole number >= 1, got {self.starts!r}")
+        if self.starts > MAX_STARTS:
+            raise ValueError(f"starts must be at most {MAX_STARTS:,} (one model's keyframes), "
+                             f"got {self.starts:,}")
         if self.starts > 1 and self.physics.scene.start_shift == 0.0:
             raise PhysicsParameterError(
                 f"{self.starts} starts need a start shift > 0: with start_shift 0 every start "

@@ -158,6 +158,8 @@ def test_walk_json_of_starts_that_did_not_walk_is_valid_json(capsys):
 
 @pytest.mark.parametrize("arguments, message", [
     (["--shifted-starts", "0"], "a count is a whole number >= 1"),
+    (["--starts", "0"], "starts is a whole number from 1 to 1000"),
+    (["--starts", "100000"], "starts is a whole number from 1 to 1000"),
     (["--shifted-starts", "2", "--workers", "0"], "--workers needs at least 1"),
 ])
 def test_walk_refuses_a_bad_count_of_starts_or_workers(capsys, arguments, message):
@@ -236,6 +238,22 @@ def test_export_writes_mjcf_that_plain_mujoco_loads(tmp_path, capsys):
     assert model.nbody == 1 + Robot.load(WALKER).n_voxels
     assert main(["export", WALKER, "--out", str(out)]) == 1
     assert "exists" in capsys.readouterr().err
+
+
+def test_export_writes_the_starts_a_walk_walks_from(tmp_path):
+    """`export --start-seed S --starts K` holds the keyframes `walk --start-seed S --starts K`
+    starts from; `--start-shift 0` none (the model starts on the grid)."""
+    import mujoco
+
+    from mjregen.physics.compile import compile_robot
+
+    out = tmp_path / "robot.xml"
+    assert main(["export", WALKER, "--out", str(out), "--start-seed", "5", "--starts", "2"]) == 0
+    exported = mujoco.MjModel.from_xml_path(str(out))
+    walked = compile_robot(Robot.load(WALKER), starts=(0, 1), start_seed=5).model
+    assert exported.nkey == 2 and np.array_equal(exported.key_qpos, walked.key_qpos)
+    assert main(["export", WALKER, "--out", str(out), "--force", "--start-shift", "0"]) == 0
+    assert mujoco.MjModel.from_xml_path(str(out)).nkey == 0
 
 
 def test_render_frames(tmp_path, capsys):

@@ -13,7 +13,7 @@ from mjregen.physics.compile import compile_robot
 from mjregen.physics.model import robot_layout
 from mjregen.physics.params import DEFAULT_START_SHIFT
 from mjregen.physics.simulation import simulate, simulate_starts
-from mjregen.physics.start_state import key_name, rest_qpos, start_generator
+from mjregen.physics.start_state import MAX_STARTS, key_name, rest_qpos, start_generator
 
 EXACT = Physics().replace(start_shift=0.0)
 
@@ -150,3 +150,8 @@ def test_more_than_one_exact_start_is_refused():
     with pytest.raises(CompileError, match="every start is the exact start"):
         compile_robot(Robot.box((2, 2, 2)), physics=exact, starts=(0, 1))
     assert compile_robot(Robot.box((2, 2, 2)), physics=exact).starts == ()
+
+
+def test_more_starts_than_a_model_holds_are_refused():
+    with pytest.raises(CompileError, match="more than one model holds"):
+        compile_robot(Robot.box((2, 2, 2)), starts=range(MAX_STARTS + 1))
