@@ -220,8 +220,8 @@ def test_a_task_described_before_starts_reads_as_one_exact_start():
     assert (task.starts, task.start_seed, task.physics.scene.start_shift) == (1, 0, 0.0)
 
 
-@pytest.mark.parametrize("kwargs", [{"starts": 0}, {"starts": 1.5}, {"starts": True}, {"starts": 1001},
-                                    {"start_seed": -1}])
+@pytest.mark.parametrize("kwargs", [{"starts": 0}, {"starts": 1.5}, {"starts": True},
+                                    {"starts": 1001}, {"start_seed": -1}])
 def test_bad_starts_are_refused(kwargs):
     with pytest.raises(ValueError, match="start"):
         fresh_task(**kwargs)
