@@ -183,7 +183,8 @@ def add_evolve_stats(subparsers: argparse._SubParsersAction) -> None:
         help="mean best fitness (MAP-Elites: QD score and coverage) with bootstrapped 95%% "
              "CIs over several runs; two groups are compared by exact tests",
         description="Plot the mean (over runs) of metrics.csv columns per generation (MAP-Elites: "
-        "iteration), with bootstrapped 95% confidence bands, one curve per group. Default "
+        "iteration), with bootstrapped 95% confidence bands (the runs' range for groups of "
+        "fewer than 5 runs, where a bootstrap covers far less), one curve per group. Default "
         "columns: best for GA runs or mixed groups, qd_score and coverage when every run is a "
         "MAP-Elites run. With two groups, each run's value at the last generation all reached "
         "is compared by an exact Mann-Whitney U test and a permutation test of the means, with "
@@ -241,7 +242,8 @@ def _evolve_stats(args: argparse.Namespace) -> int:
                    for column, groups in panels.items()} if len(args.group) == 2 else {}
     if args.json:
         curves = {column: {label: {"runs": s.n_runs, "mean": s.mean.tolist(),
-                                   "low": s.low.tolist(), "high": s.high.tolist()}
+                                   "low": s.low.tolist(), "high": s.high.tolist(),
+                                   "band": s.band}
                            for label, s in groups.items()} for column, groups in panels.items()}
         for column, comparison in comparisons.items():
             curves[column]["comparison"] = {
@@ -253,8 +255,9 @@ def _evolve_stats(args: argparse.Namespace) -> int:
     else:
         for column, groups in panels.items():
             for label, s in groups.items():
-                print(f"{label}: {s.n_runs} runs, final mean {column} {s.mean[-1]:.4f} "
-                      f"[{s.low[-1]:.4f}, {s.high[-1]:.4f}]")
+                print(f"{label}: {s.n_runs} run{'s' if s.n_runs > 1 else ''}, final mean "
+                      f"{column} {s.mean[-1]:.4f} [{s.low[-1]:.4f}, {s.high[-1]:.4f}] "
+                      f"({s.band})")
         for column, comparison in comparisons.items():
             labels = tuple(label for label, *_ in args.group)
             print(f"{column} at the last generation all reached: {comparison.sentence(labels)}")

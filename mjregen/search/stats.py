@@ -1,6 +1,8 @@
 """Statistics over several evolution runs: mean best fitness (MAP-Elites runs: also QD
 score and coverage) with bootstrapped 95 % CIs (the paper's Fig. 3b/4b style), read from
-the runs' metrics.csv files."""
+the runs' metrics.csv files. Below `MIN_CI_RUNS` runs the band is the runs' range instead:
+a percentile bootstrap of so few values covers far less than its level (two runs: their
+range, whatever the level)."""
 
 from __future__ import annotations
 
@@ -14,11 +16,14 @@ import numpy as np
 from mjregen.errors import MjregenError
 from mjregen.plotting import save_png
 
+MIN_CI_RUNS = 5  # runs below which a band is the runs' range, not a bootstrap CI
+
 
 @dataclass(frozen=True)
 class CurveStats:
-    """Per generation over runs: ``generations (G,)``, ``mean, low, high (G,)``, n runs, and
-    each run's own length (longer runs are cut to G)."""
+    """Per generation over runs: ``generations (G,)``, ``mean, low, high (G,)``, n runs,
+    what low and high are (`band`: "95 % CI", or "range" below MIN_CI_RUNS runs), and each
+    run's own length (longer runs are cut to G)."""
 
     generations: np.ndarray
     mean: np.ndarray
@@ -26,6 +31,7 @@ class CurveStats:
     high: np.ndarray
     n_runs: int
     run_lengths: tuple[int, ...] = ()
+    band: str = "95 % CI"
 
     @property
     def truncated(self) -> bool:
@@ -65,7 +71,8 @@ def read_curve(run: str | Path, column: str = "best") -> np.ndarray:
 
 def bootstrap_curves(curves: np.ndarray, *, resamples: int = 10_000, confidence: float = 0.95,
                      seed: int = 0) -> CurveStats:
-    """Mean over runs and its percentile-bootstrap CI, per generation.
+    """Mean over runs and its percentile-bootstrap CI, per generation; with fewer than
+    MIN_CI_RUNS runs, their range (`CurveStats.band` says which).
 
     Args:
       curves: ``(runs, generations)``.
@@ -73,12 +80,16 @@ def bootstrap_curves(curves: np.ndarray, *, resamples: int = 10_000, confidence:
     curves = np.asarray(curves, dtype=np.float64)
     if curves.ndim != 2 or curves.shape[0] < 1:
         raise ValueError(f"curves must be (runs, generations), got shape {curves.shape}")
+    if curves.shape[0] < MIN_CI_RUNS:
+        return CurveStats(np.arange(curves.shape[1]), curves.mean(axis=0), curves.min(axis=0),
+                          curves.max(axis=0), curves.shape[0], band="range")
     rng = np.random.default_rng(seed)
     picks = rng.integers(0, curves.shape[0], size=(resamples, curves.shape[0]))
     means = curves[picks].mean(axis=1)  # (resamples, generations)
     tail = (1.0 - confidence) / 2.0 * 100.0
     low, high = np.percentile(means, [tail, 100.0 - tail], axis=0)
-    return CurveStats(np.arange(curves.shape[1]), curves.mean(axis=0), low, high, curves.shape[0])
+    return CurveStats(np.arange(curves.shape[1]), curves.mean(axis=0), low, high, curves.shape[0],
+                      band=f"{confidence:.0%} CI".replace("%", " %"))
 
 
 def group_stats(runs: list[str | Path], column: str = "best", **kwargs: object) -> CurveStats:
@@ -101,7 +112,7 @@ def group_stats(runs: list[str | Path], column: str = "best", **kwargs: object) 
 def plot_panels(panels: dict[str, dict[str, CurveStats]], path: str | Path, *,
                 xlabel: str = "generation") -> None:
     """One panel per metrics column ({column: {group label: stats}}), each with the groups'
-    mean curves and shaded CIs, side by side in one PNG."""
+    mean curves and shaded bands (CIs, or ranges of few runs), side by side in one PNG."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
@@ -112,7 +123,8 @@ def plot_panels(panels: dict[str, dict[str, CurveStats]], path: str | Path, *,
         ax.set(xlabel=xlabel, ylabel=column)
         ax.grid(alpha=0.3)
         for label, stats in groups.items():
-            line, = ax.plot(stats.generations, stats.mean, label=f"{label} (n={stats.n_runs})")
+            line, = ax.plot(stats.generations, stats.mean,
+                            label=f"{label} (n={stats.n_runs}; shaded: {stats.band})")
             ax.fill_between(stats.generations, stats.low, stats.high, color=line.get_color(),
                             alpha=0.25)
     save_png(figure, path)

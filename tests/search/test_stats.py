@@ -37,3 +37,15 @@ def test_group_stats_reads_metrics_and_plots(tmp_path):
     (tmp_path / "missing" / "config.json").write_text('{"task": {"task": "locomotion"}}')
     with pytest.raises(FileNotFoundError, match="metrics.csv"):
         group_stats([tmp_path / "missing"])
+
+
+def test_few_runs_get_their_range_not_a_ci():
+    """Below MIN_CI_RUNS runs a percentile bootstrap covers far less than 95 % (two runs: it
+    is their range whatever the level), so the band is the runs' range and says so."""
+    from mjregen.search.stats import MIN_CI_RUNS
+
+    two = bootstrap_curves(np.array([[1.0, 4.0], [3.0, 2.0]]))
+    assert two.band == "range" and MIN_CI_RUNS > 2
+    assert np.array_equal(two.low, [1.0, 2.0]) and np.array_equal(two.high, [3.0, 4.0])
+    enough = bootstrap_curves(np.random.default_rng(1).normal(size=(MIN_CI_RUNS, 2)))
+    assert enough.band == "95 % CI"
