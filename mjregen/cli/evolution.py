@@ -202,14 +202,10 @@ def add_evolve_stats(subparsers: argparse._SubParsersAction) -> None:
     parser.set_defaults(handler=_evolve_stats)
 
 
-def _evolve_stats(args: argparse.Namespace) -> int:
+def _check_stats_request(args: argparse.Namespace) -> None:
+    """MjregenError for an --out that is not a .png (or exists without --force), a group
+    without runs, or a label given twice."""
     from mjregen.errors import OutputExistsError
-    from mjregen.search.stats import (
-        group_stats,
-        is_map_elites_run,
-        plot_panels,
-        run_kind,
-    )
 
     if args.out.suffix.lower() != ".png":
         raise MjregenError(f"--out {args.out}: the curves are written as PNG; name a .png file")
@@ -223,6 +219,17 @@ def _evolve_stats(args: argparse.Namespace) -> int:
     if repeated:
         raise MjregenError(f"group label(s) {', '.join(map(repr, repeated))} given more than "
                            "once: each --group needs its own label")
+
+
+def _evolve_stats(args: argparse.Namespace) -> int:
+    from mjregen.search.stats import (
+        group_stats,
+        is_map_elites_run,
+        plot_panels,
+        run_kind,
+    )
+
+    _check_stats_request(args)
     kinds = {label: run_kind(runs[0]) for label, *runs in args.group}
     if len(set(kinds.values())) > 1:
         raise MjregenError("the groups evolved for different tasks, whose fitnesses do not "

@@ -154,12 +154,9 @@ def add_walk(subparsers: argparse._SubParsersAction) -> None:
     parser.set_defaults(handler=_walk)
 
 
-def _walk(args: argparse.Namespace) -> int:
-    from mjregen.fileio import atomic_open
-    from mjregen.physics.simulation import simulate_starts
-    from mjregen.tasks.fitness import locomotion_fitness
-
-    robot = Robot.load(args.robot)
+def _check_walk_request(args: argparse.Namespace, robot: Robot) -> None:
+    """MjregenError for a walk that cannot or should not start: an empty robot, a trajectory
+    file in the way, or flags that do not go together."""
     if robot.is_empty:
         raise MjregenError(f"{args.robot} holds an empty robot: nothing to walk")
     if args.trajectory is not None and args.trajectory.exists() and not args.force:
@@ -172,6 +169,15 @@ def _walk(args: argparse.Namespace) -> int:
     if args.shift is not None and not (math.isfinite(args.shift) and args.shift > 0.0):
         raise MjregenError(f"--shift must be a finite number of voxel lengths > 0, "
                            f"got {args.shift!r}")
+
+
+def _walk(args: argparse.Namespace) -> int:
+    from mjregen.fileio import atomic_open
+    from mjregen.physics.simulation import simulate_starts
+    from mjregen.tasks.fitness import locomotion_fitness
+
+    robot = Robot.load(args.robot)
+    _check_walk_request(args, robot)
     physics = physics_from_args(args)
     record = args.trajectory is not None
     start_seed = args.start_seed or 0

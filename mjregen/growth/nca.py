@@ -21,6 +21,7 @@ Genomes are float32 vectors in the order of ``torch.nn.utils.parameters_to_vecto
 
 from __future__ import annotations
 
+import functools
 import math
 import threading
 from collections.abc import Iterator
@@ -254,6 +255,53 @@ def _one_thread_per_op() -> Iterator[None]:
 
 
 @torch.no_grad()
+def _check_start(config: NCAConfig, start: CAState, population: int) -> None:
+    """ValueError unless `start` holds `population` states on the NCA's grid, with LSTM
+    memory exactly when the NCA is an LSTM."""
+    if tuple(start.state.shape) != (population, *config.grid_shape):
+        raise ValueError(
+            f"start state shape {tuple(start.state.shape)} does not match {population} "
+            f"individuals on a {config.grid_shape} grid"
+        )
+    if (start.memory is None) != (config.kind == "ff"):
+        raise ValueError("start state needs LSTM memory exactly when the NCA is an LSTM")
+
+
+@torch.no_grad()
+def _grow_batch(config: NCAConfig, genomes: np.ndarray, start: CAState, n_steps: int,
+                part: slice) -> tuple[torch.Tensor, torch.Tensor, CAState]:
+    """(states, alphas) of every step and the final state of the individuals `part`."""
+    networks = PopulationNetworks(config, genomes[part])
+    ca = CAState(
+        start.state[part],
+        start.alpha[part],
+        None if start.memory is None else (start.memory[0][part], start.memory[1][part]),
+    )
+    history = [ca]
+    for _ in range(n_steps):
+        ca = growth_step(config, networks, ca)
+        history.append(ca)
+    return (torch.stack([h.state for h in history], dim=1),
+            torch.stack([h.alpha for h in history], dim=1), ca)
+
+
+def _in_batches(grow_batch, population: int) -> list:
+    """`grow_batch(part)` of each batch (`_batches`) of the `population` individuals, side
+    by side on up to ``torch.get_num_threads()`` threads, each running its operations on one
+    thread; the results in batch order."""
+    with _THREAD_SETTING:  # growths in other threads wait: torch's setting is global
+        threads = min(torch.get_num_threads(), population)
+        parts = _batches(population, threads)
+        with _one_thread_per_op():
+            if threads <= 1:
+                return [grow_batch(part) for part in parts]
+            pool = ThreadPoolExecutor(threads)
+            try:
+                return list(pool.map(grow_batch, parts))
+            finally:  # an interrupt drops the batches not started
+                pool.shutdown(wait=True, cancel_futures=True)
+
+
 def grow(
     config: NCAConfig,
     genomes: np.ndarray,
@@ -285,44 +333,11 @@ def grow(
     if population == 0:
         raise InvalidGenomeError("no genomes to grow: the population is empty")
     start = CAState.seed(config, population) if start is None else start
-    if tuple(start.state.shape) != (population, *config.grid_shape):
-        raise ValueError(
-            f"start state shape {tuple(start.state.shape)} does not match {population} "
-            f"individuals on a {config.grid_shape} grid"
-        )
-    if (start.memory is None) != (config.kind == "ff"):
-        raise ValueError("start state needs LSTM memory exactly when the NCA is an LSTM")
+    _check_start(config, start, population)
     n_steps = config.steps if steps is None else steps
 
-    @torch.no_grad()
-    def grow_chunk(part: slice) -> tuple[torch.Tensor, torch.Tensor, CAState]:
-        """(states, alphas) of every step and the final state of the individuals `part`."""
-        networks = PopulationNetworks(config, genomes[part])
-        ca = CAState(
-            start.state[part],
-            start.alpha[part],
-            None if start.memory is None else (start.memory[0][part], start.memory[1][part]),
-        )
-        history = [ca]
-        for _ in range(n_steps):
-            ca = growth_step(config, networks, ca)
-            history.append(ca)
-        return (torch.stack([h.state for h in history], dim=1),
-                torch.stack([h.alpha for h in history], dim=1), ca)
-
-    with _THREAD_SETTING:  # growths in other threads wait: torch's setting is global
-        threads = min(torch.get_num_threads(), population)
-        parts = _batches(population, threads)
-        with _one_thread_per_op():
-            if threads > 1:
-                pool = ThreadPoolExecutor(threads)
-                try:
-                    chunks = list(pool.map(grow_chunk, parts))
-                finally:  # an interrupt drops the batches not started
-                    pool.shutdown(wait=True, cancel_futures=True)
-            else:
-                chunks = [grow_chunk(part) for part in parts]
-    states, alphas, finals = zip(*chunks)
+    batch = functools.partial(_grow_batch, config, genomes, start, n_steps)
+    states, alphas, finals = zip(*_in_batches(batch, population))
     final = CAState(
         torch.cat([f.state for f in finals]),
         torch.cat([f.alpha for f in finals]),

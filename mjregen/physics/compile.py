@@ -27,7 +27,7 @@ from mjregen.physics.model import (
     robot_layout,
     voxel_name,
 )
-from mjregen.physics.params import Physics
+from mjregen.physics.params import Physics, Scene
 from mjregen.physics.rounding import round_like_mjcf
 from mjregen.physics.tendons import BondTable, MuscleTendons
 
@@ -153,14 +153,7 @@ def compile_robot(
     table, beams, muscles, max_k_per_m = bond_tables(layout, physics)
     spec, bodies = mjcf.voxel_bodies(layout, physics)
     builder.add_forces(spec, bodies, layout, physics, table, beams, drive)
-    if physics.scene.start_shift == 0.0:
-        if len(starts) > 1:
-            raise CompileError(f"with start_shift 0 every start is the exact start: compile one "
-                               f"start, not {len(starts)}")
-        starts = ()
-    for index in starts:
-        spec.add_key(name=start_state.key_name(index), qpos=start_state.start_qpos(
-            layout, physics.scene, robot.grid, seed=start_seed, index=index).tolist())
+    starts = _add_starts(spec, layout, physics.scene, robot.grid, starts, start_seed)
     block_step = timestep.stiffest_bond_step(physics, max_k_per_m)
     spec.option.timestep = round_like_mjcf(block_step)
     model = spec.compile()
@@ -208,6 +201,21 @@ def _network_step(rates: tuple[float, float], physics: Physics, block_step: floa
             f"s (rates {rates[0]:.3g} s^-2, {rates[1]:.3g} s^-1), a block of its stiffest "
             f"bond {block_step:.3g} s; simulate it with timestep_rule='stiffest_bond'")
     return step
+
+
+def _add_starts(spec: mujoco.MjSpec, layout: RobotLayout, scene: Scene, grid: np.ndarray,
+                starts: tuple[int, ...], seed: int) -> tuple[int, ...]:
+    """Add each start as the keyframe ``start_<index>`` (`start_state`); returns the starts
+    the model holds: none with start shift 0 (every walk starts at ``qpos0``)."""
+    if scene.start_shift == 0.0:
+        if len(starts) > 1:
+            raise CompileError(f"with start_shift 0 every start is the exact start: compile one "
+                               f"start, not {len(starts)}")
+        return ()
+    for index in starts:
+        spec.add_key(name=start_state.key_name(index), qpos=start_state.start_qpos(
+            layout, scene, grid, seed=seed, index=index).tolist())
+    return starts
 
 
 def _checked_starts(starts: Sequence[int], seed: int) -> tuple[tuple[int, ...], int]:

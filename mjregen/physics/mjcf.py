@@ -90,10 +90,10 @@ def _numbers(values: Iterable) -> str:
     return " ".join(map(repr, array.tolist()))
 
 
-def add_voxel_plugin(spec: mujoco.MjSpec, layout: RobotLayout, physics: Physics,
-                      table: BondTable, beams: BeamTable, drive: str) -> None:
-    """The ``mjregen.voxels`` instance that computes every force (contacts and constraints
-    of MuJoCo off), and with drive "ctrl" the two strain actuators."""
+def plugin_config(layout: RobotLayout, physics: Physics, table: BondTable, beams: BeamTable,
+                  drive: str) -> dict[str, str]:
+    """The voxel plugin instance's configuration (attribute -> text): every number it needs,
+    written exactly."""
     scene, pipeline = physics.scene, physics.pipeline
     L = scene.voxel_size
     props = [physics.materials[m] for _, m in layout.voxels]
@@ -141,6 +141,15 @@ def add_voxel_plugin(spec: mujoco.MjSpec, layout: RobotLayout, physics: Physics,
                       tendon_stiffness=_numbers(table.stiffness),
                       tendon_damping=_numbers(table.damping), tendon_rest=_numbers(table.rest),
                       tendon_lateral2=_numbers(table.lateral ** 2))
+    return config
+
+
+def add_voxel_plugin(spec: mujoco.MjSpec, layout: RobotLayout, physics: Physics,
+                      table: BondTable, beams: BeamTable, drive: str) -> None:
+    """The ``mjregen.voxels`` instance that computes every force (contacts and constraints
+    of MuJoCo off), and with drive "ctrl" the two strain actuators."""
+    L = physics.scene.voxel_size
+    config = plugin_config(layout, physics, table, beams, drive)
     unknown = set(config) - set(voxel_plugin.ATTRIBUTES)
     if unknown:
         raise AssertionError(f"voxel plugin attributes unknown to the plugin: {sorted(unknown)}")

@@ -122,6 +122,20 @@ class ShiftedStarts:
         return bool(self.kept < KEPT) or not bool(np.all(self.stable))
 
 
+def _walks(jobs: list[StartJob], backend: Backend | None) -> list:
+    """Each job's walk (`walk_from`), in this process or on `backend`; MjregenError naming
+    the first start whose walk failed there."""
+    if backend is None:
+        return [walk_from(job) for job in jobs]
+    outcomes = backend.map(walk_from, jobs)
+    for job, outcome in zip(jobs, outcomes):
+        if not outcome.ok:
+            which = (f"shifted start {job.index} (seed {job.seed})"
+                     if job.physics.scene.start_shift else "exact start")
+            raise MjregenError(f"the walk from the {which} failed: {outcome.error}")
+    return [outcome.value for outcome in outcomes]
+
+
 def shifted_starts(robot: Robot, *, physics: Physics | None = None,
                    duration: float | None = None, starts: int = CHECK_STARTS,
                    shift: float | None = None, start_seed: int = 0,
@@ -169,16 +183,7 @@ def shifted_starts(robot: Robot, *, physics: Physics | None = None,
     grid = np.asarray(robot.grid)
     jobs = [StartJob(grid, exact, duration, 0, 0, record=record_default)]
     jobs += [StartJob(grid, shifted, duration, start_seed, index) for index in indices]
-    if backend is None:
-        results = [walk_from(job) for job in jobs]
-    else:
-        outcomes = backend.map(walk_from, jobs)
-        for job, outcome in zip(jobs, outcomes):
-            if not outcome.ok:
-                which = (f"shifted start {job.index} (seed {job.seed})"
-                         if job.physics.scene.start_shift else "exact start")
-                raise MjregenError(f"the walk from the {which} failed: {outcome.error}")
-        results = [outcome.value for outcome in outcomes]
+    results = _walks(jobs, backend)
     return ShiftedStarts(
         default=results[0], shift=float(shift), seed=start_seed, indices=indices,
         distances=np.array([r.distance for r in results[1:]], dtype=float),
