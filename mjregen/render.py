@@ -324,7 +324,7 @@ def walk_frame_count(sim_time: float, *, fps: int, slowdown: float) -> int:
 
 
 def record_walk(compiled: CompiledRobot, *, duration: float | None = None, fps: int = 30,
-                slowdown: float = 10.0) -> Walk:
+                slowdown: float = 10.0, start: int = 0) -> Walk:
     """Simulate the robot as `mjregen.physics.simulation.simulate` does and sample states for a video.
 
     The run is the settle time plus `duration` of actuation (the same steps as `simulate`),
@@ -336,6 +336,7 @@ def record_walk(compiled: CompiledRobot, *, duration: float | None = None, fps: 
       duration: s of actuation; None = the scene's measured time.
       fps: frames per second of the video.
       slowdown: how many times slower than real time the video plays (10 = slow motion).
+      start: which of the model's starts the walk begins from (`CompiledRobot.starts`).
     Raises:
       ValueError: non-positive `fps`, `slowdown` or negative `duration`.
     """
@@ -354,7 +355,7 @@ def record_walk(compiled: CompiledRobot, *, duration: float | None = None, fps: 
     n_steps = round(settle / dt) + round(measured / dt)
     n_frames = walk_frame_count(n_steps * dt, fps=fps, slowdown=slowdown)
     frame_steps = np.round(np.linspace(0, n_steps, n_frames)).astype(int)
-    sim = simulation_of(compiled)
+    sim = simulation_of(compiled, start)
     qpos, com, reason = [], [], ""
     for step in frame_steps:
         reason = sim.run(int(step) - sim.steps) if step > sim.steps else ""

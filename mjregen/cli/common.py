@@ -26,6 +26,14 @@ def starts_count(text: str) -> int:
     return value
 
 
+def start_index(text: str) -> int:
+    """argparse type of --start: a start's index, a whole number >= 0."""
+    value = _whole(text, "start")
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"a start is a whole number >= 0, got {text}")
+    return value
+
+
 def seed(text: str) -> int:
     """argparse type of --seed: a whole number >= 0 (numpy's seeds)."""
     value = _whole(text, "seed")

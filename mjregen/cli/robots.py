@@ -17,6 +17,7 @@ from mjregen.cli.common import (
     positive,
     print_json,
     seed,
+    start_index,
     starts_count,
     workers,
 )
@@ -341,7 +342,8 @@ def add_render(subparsers: argparse._SubParsersAction) -> None:
         help="render a robot's walk to an .mp4 video or PNG frames",
         description="Simulate a robot file (.npy) as `walk` does and render it headless "
         "(EGL, else OSMesa, or MUJOCO_GL when set) to a video (--out walk.mp4) or PNG frames "
-        "(--frames DIR).",
+        "(--frames DIR); --start-seed and --start choose the start, as `walk --start-seed S "
+        "--starts K` numbers them.",
     )
     parser.add_argument("robot", type=Path, help="robot file (.npy)")
     target = parser.add_mutually_exclusive_group(required=True)
@@ -353,6 +355,11 @@ def add_render(subparsers: argparse._SubParsersAction) -> None:
                         help="image height in pixels (default 360)")
     parser.add_argument("--fps", type=int, default=30, help="video frames per second (default 30)")
     parser.add_argument("--slowdown", type=float, default=10.0, help="times slower than real time (default 10)")
+    parser.add_argument("--start", type=start_index, metavar="K",
+                        help="render the walk from start K (default 0), as `walk --starts` "
+                             "numbers them")
+    parser.add_argument("--start-seed", type=seed,
+                        help="seed of the starts (default 0; an evolution uses its seed)")
     parser.add_argument("--force", action="store_true", help="overwrite existing files")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     parser.set_defaults(handler=_render, renders=True)
@@ -370,9 +377,12 @@ def _render(args: argparse.Namespace) -> int:
         view = View(width=args.width, height=args.height)
     except ValueError as error:
         raise MjregenError(str(error)) from None
-    compiled = compile_robot(robot, physics=physics_from_args(args))
+    start = args.start or 0
+    compiled = compile_robot(robot, physics=physics_from_args(args), starts=(start,),
+                             start_seed=args.start_seed or 0)
     try:
-        walk = record_walk(compiled, duration=args.duration, fps=args.fps, slowdown=args.slowdown)
+        walk = record_walk(compiled, duration=args.duration, fps=args.fps, slowdown=args.slowdown,
+                           start=start)
     except ValueError as error:
         raise MjregenError(str(error)) from None
     if args.out is not None:

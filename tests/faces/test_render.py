@@ -174,6 +174,19 @@ def test_recorded_walk_is_the_simulated_walk():
     assert np.all(np.diff(walk.times) > 0)
 
 
+def test_a_recorded_walk_from_another_start_is_that_start_s_walk():
+    """`record_walk(start=k)` (what `mjregen render --start-seed S --start k` renders) begins
+    at start k's keyframe and ends where `simulate(start_seed=S, start=k)` does."""
+    robot = Robot.load(Path(__file__).parents[2] / "assets/robots/bimorph_walker_3d.npy")
+    compiled = compile_robot(robot, starts=(2,), start_seed=3)
+    walk = record_walk(compiled, duration=0.02, fps=20, slowdown=10, start=2)
+    result = simulate(robot, duration=0.02, record=True, start_seed=3, start=2)
+    np.testing.assert_array_equal(walk.qpos[0], compiled.model.key_qpos[0])
+    np.testing.assert_array_equal(walk.com[-1], result.com[-1])
+    other = simulate(robot, duration=0.02, record=True)  # start 0 of seed 0 differs
+    assert not np.array_equal(walk.com[-1], other.com[-1])
+
+
 def test_video_has_the_frames_and_is_not_overwritten(backend, tmp_path):
     compiled = compile_robot(Robot.load(
         Path(__file__).parents[2] / "assets/robots/bimorph_walker_3d.npy"))
