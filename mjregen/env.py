@@ -7,9 +7,9 @@ environment. Names are the model's: bodies ``voxel_<x>_<y>_<z>`` (2D ``voxel_<x>
 ``physics.named.data.xpos["voxel_1_1_1"]`` reads a voxel; the actuators ``muscle_plus`` and
 ``muscle_minus`` are the two muscle groups.
 
-Episode: `reset` restores the start state (the model's keyframe ``start_0``: every voxel
-moved by its seeded offset, as `simulate`'s start 0) and lets the robot settle without actuation for
-the scene's settle time (as `mjregen.physics.simulate` does); each step holds the action for
+Episode: `reset` restores a start state (the model's keyframe ``start_<k>``: every voxel
+moved by its seeded offset, as `simulate`'s start k; k drawn from ``starts`` of them, start 0
+alone by default) and lets the robot settle without actuation for the scene's settle time (as `mjregen.physics.simulate` does); each step holds the action for
 `control_timestep` seconds of physics; the episode ends after `duration` s of control
 (truncation, discount 1) or when the stability guard of `simulate` trips (termination,
 discount 0).
@@ -45,7 +45,7 @@ from dm_control.rl import control  # noqa: E402
 from dm_control.suite import base  # noqa: E402
 from dm_env import specs  # noqa: E402
 
-from mjregen.errors import MjregenError  # noqa: E402
+from mjregen.errors import CompileError, MjregenError  # noqa: E402
 from mjregen.grid import Robot  # noqa: E402
 from mjregen.physics import voxel_plugin  # noqa: E402
 from mjregen.physics.compile import compile_robot  # noqa: E402
@@ -107,9 +107,10 @@ class Locomotion(base.Task):
     """Walk as far as possible: reward is forward progress (module docstring)."""
 
     def __init__(self, *, dim: int, voxel_size: float, settle_steps: int, open_loop: bool,
-                 contract: bool, start_key: int | None = None) -> None:
-        super().__init__(random=None)
-        self._start_key = start_key
+                 contract: bool, start_keys: tuple[int | None, ...] = (None,),
+                 random: int | None = None) -> None:
+        super().__init__(random=random)
+        self._start_keys = start_keys
         self._planar = [0, 1] if dim == 3 else [0]
         self._voxel = voxel_size
         self._settle_steps = settle_steps
@@ -120,11 +121,12 @@ class Locomotion(base.Task):
         self._inverse_limits: np.ndarray | None = None
 
     def initialize_episode(self, physics: VoxelPhysics) -> None:
-        """Start from the model's start keyframe (every voxel moved by its seeded offset,
-        when the scene has a start shift), settle without actuation; the distance counts
-        from here."""
-        if self._start_key is not None:
-            mujoco.mj_resetDataKeyframe(physics.model.ptr, physics.data.ptr, self._start_key)
+        """Start from one of the model's start keyframes (every voxel moved by its seeded
+        offset, when the scene has a start shift), drawn with the task's random state, settle
+        without actuation; the distance counts from here."""
+        key = self._start_keys[self.random.randint(len(self._start_keys))]
+        if key is not None:
+            mujoco.mj_resetDataKeyframe(physics.model.ptr, physics.data.ptr, key)
         physics.data.ctrl[:] = 0.0
         mujoco.mj_step(physics.model.ptr, physics.data.ptr, nstep=self._settle_steps)
         mujoco.mj_kinematics(physics.model.ptr, physics.data.ptr)
@@ -173,7 +175,7 @@ class Locomotion(base.Task):
 
 def load(robot: Robot, *, physics: Physics | None = None, duration: float | None = None,
          control_timestep: float | None = None, open_loop: bool = False,
-         start_seed: int = 0) -> control.Environment:
+         start_seed: int = 0, starts: int = 1) -> control.Environment:
     """The robot's locomotion environment (module docstring).
 
     Args:
@@ -183,12 +185,16 @@ def load(robot: Robot, *, physics: Physics | None = None, duration: float | None
       control_timestep: s of physics per step; None = a tenth of an actuation period
         (2.5 ms at 40 Hz); rounded to a whole number (>= 1) of physics steps.
       open_loop: the muscles follow the scene's waveform (no action), as in `simulate`.
-      start_seed: every episode starts from the robot's start 0 of this seed (`simulate`'s
-        start: every voxel moved by the scene's ``start_shift``), as `simulate` does.
+      start_seed: the seed of the robot's starts (`simulate`'s: every voxel moved by the
+        scene's ``start_shift``), and of the draw of each episode's start.
+      starts: each episode starts from one of starts 0 .. `starts` - 1, drawn at random
+        (seeded by `start_seed`: the same sequence of episodes each time); 1 = every episode
+        from start 0, as `simulate` walks.
     Raises:
       ValueError: non-positive `duration` or `control_timestep`, or a control step longer
         than the episode.
-      CompileError: empty robot, or a `start_seed` that is not a whole number >= 0.
+      CompileError: empty robot, a `start_seed` that is not a whole number >= 0, `starts`
+        not from 1 to MAX_STARTS, or more than one start with start shift 0.
       MjregenError: the pure-MuJoCo pipeline (its muscles need a Python driver).
     """
     physics = Physics() if physics is None else physics
@@ -196,8 +202,10 @@ def load(robot: Robot, *, physics: Physics | None = None, duration: float | None
         raise MjregenError("the environment runs the voxel pipeline (the MuJoCo pipeline's "
                            "muscles are driven from Python, not by the model)")
     scene = physics.scene
+    if isinstance(starts, bool) or not isinstance(starts, int) or starts < 1:
+        raise CompileError(f"starts must be a whole number >= 1, got {starts!r}")
     compiled = compile_robot(robot, physics=physics, drive="waveform" if open_loop else "ctrl",
-                             start_seed=start_seed)
+                             starts=range(starts), start_seed=start_seed)
     settle, measured = scene.timing(robot.dim)
     duration = measured if duration is None else duration
     control_timestep = (1.0 / (10.0 * scene.frequency) if control_timestep is None
@@ -215,7 +223,9 @@ def load(robot: Robot, *, physics: Physics | None = None, duration: float | None
     world = VoxelPhysics.from_xml_string(compiled.to_xml())
     task = Locomotion(dim=robot.dim, voxel_size=scene.voxel_size,
                       settle_steps=round(settle / dt), open_loop=open_loop,
-                      contract=scene.waveform == "contract", start_key=compiled.start_key(0))
+                      contract=scene.waveform == "contract",
+                      start_keys=tuple(compiled.start_key(k) for k in range(starts)),
+                      random=start_seed)
     step = n_sub_steps * dt
     return control.Environment(world, task, time_limit=(n_steps - 0.5) * step,
                                control_timestep=step)

@@ -95,6 +95,24 @@ def test_open_loop_episode_reproduces_simulate():
     assert step.step_type == dm_env.StepType.LAST and step.discount == 1.0
 
 
+def test_episodes_draw_their_starts_reproducibly():
+    """With starts=K each reset draws one of K starts (seeded by start_seed): the episodes'
+    first states repeat for the same seed, differ between episodes, and are keyframes of
+    starts 0 .. K-1; starts=1 starts every episode from start 0."""
+    def first_states(seed: int, starts: int) -> list[np.ndarray]:
+        env = load(tiny_walker(), duration=0.005, open_loop=True, start_seed=seed,
+                   starts=starts)
+        return [env.reset().observation["voxel_positions"] for _ in range(6)]
+
+    a, b = first_states(3, 4), first_states(3, 4)
+    assert all(np.array_equal(x, y) for x, y in zip(a, b))
+    assert len({x.tobytes() for x in a}) > 1  # several of the 4 starts were drawn
+    single = first_states(3, 1)
+    assert len({x.tobytes() for x in single}) == 1
+    with pytest.raises(ValueError, match="starts"):
+        load(tiny_walker(), starts=0)
+
+
 def test_reset_is_deterministic_and_actions_matter():
     def rollout(seed: int) -> tuple[np.ndarray, float]:
         env = load(tiny_walker(), duration=0.02)
