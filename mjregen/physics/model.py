@@ -149,8 +149,13 @@ def bond_tables(layout: RobotLayout, physics: Physics
             f"the robot's materials have different Poisson ratios {sorted(ratios)}; bond "
             "geometry needs one ratio per robot")
     a, b = bond_geometry(ratios.pop(), L, bond_model=pipeline.bond_model)
-    rows = [_beam_row(layout, physics, i, j, engine_beam=engine_beam,
-                      engine_damping=engine_damping) for i, j, _ in layout.bonds]
+    rows, of_pair = [], {}  # a row depends only on its voxels' materials and masses
+    for i, j, _ in layout.bonds:
+        pair = (layout.voxels[i][1], layout.voxels[j][1], layout.masses[i], layout.masses[j])
+        if pair not in of_pair:
+            of_pair[pair] = _beam_row(layout, physics, i, j, engine_beam=engine_beam,
+                                      engine_damping=engine_damping)
+        rows.append(of_pair[pair])
     max_k_per_m = max((row.k_per_m for row in rows), default=0.0)
     if not layout.bonds:
         present = {m for _, m in layout.voxels}
