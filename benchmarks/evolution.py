@@ -5,8 +5,8 @@ evolution.
         [--scene stepper=mujoco --scene timestep_rule=stiffest_bond]
         [--scene pipeline=mujoco --scene contact_shape=point]
         [--backends serial process thread] [--json out.json]
-    python benchmarks/evolution.py short-run [--pop 100] [--gens 5] [--out runs/short3d]
-        [--json out.json]
+    python benchmarks/evolution.py short-run [--dim 3] [--pop 100] [--gens 5]
+        [--out runs/short3d] [--json out.json]
     python benchmarks/evolution.py profile [--pop 12] [--seed 0] [--json out.json]
 
 `backends` grows one 3D population (the paper's initial genes, so most robots are large
@@ -97,11 +97,13 @@ class SizeRecordingTask(LocomotionTask):
 
 
 def short_run(args: argparse.Namespace) -> dict:
-    """A real 3D evolution with the paper's GA (population `--pop`, its truncation and
-    elites shares) on 2 worker processes; its throughput and the projected wall time of the
-    paper's 300 generations at the measured mean time per generation."""
-    ga = PRESETS["3d"].scaled(args.pop).with_overrides(generations=args.gens)
-    task = SizeRecordingTask(nca=NCAConfig(dim=3, kind="ff"))
+    """A real evolution (3D, or 2D with ``--dim 2``) with the paper's GA (population `--pop`,
+    its truncation and elites shares) on 2 worker processes; its throughput and the
+    projected wall time of the paper's generations (3D 300, 2D 500) at the measured mean
+    time per generation."""
+    preset = PRESETS[f"{args.dim}d"]
+    ga = preset.scaled(args.pop).with_overrides(generations=args.gens)
+    task = SizeRecordingTask(nca=NCAConfig(dim=args.dim, kind="ff"))
     rows = []
     wall = time.perf_counter()
     with make_backend("process", workers=2) as backend:
@@ -118,11 +120,13 @@ def short_run(args: argparse.Namespace) -> dict:
               "mean_voxels_per_generation": task.sizes,
               "evaluations": evaluations, "wall_s": wall,
               "evaluations_per_s": evaluations / sum(per_generation),
-              "projected_paper_run_h": float(np.mean(per_generation)) * 300 / 3600}
+              "projected_paper_run_h": float(np.mean(per_generation)) * preset.generations / 3600,
+              "dim": args.dim}
     print(f"{evaluations} evaluations in {sum(per_generation):.1f} s "
           f"({result['evaluations_per_s']:.2f} per s); best per generation: "
           + " ".join(f"{b:.3f}" for b in result["best"])
-          + f"; 300 generations at this pace: {result['projected_paper_run_h']:.2f} h")
+          + f"; {preset.generations} generations at this pace: "
+          f"{result['projected_paper_run_h']:.2f} h")
     return result
 
 
@@ -169,6 +173,9 @@ def main() -> None:
                         help="population (default: backends 20, profile 12, short-run the "
                              "paper's 100)")
     parser.add_argument("--gens", type=int, default=5)
+    parser.add_argument("--dim", type=int, choices=(2, 3), default=3,
+                        help="short-run: the robots' dimension (the paper's GA of that "
+                             "dimension)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--out", default="runs/short3d")
     parser.add_argument("--bonds", choices=("beam", "tendons"), default=None,
@@ -183,7 +190,8 @@ def main() -> None:
     parser.add_argument("--json", help="also write the results here")
     args = parser.parse_args()
     if args.pop is None:
-        args.pop = {"backends": 20, "profile": 12}.get(args.mode, PRESETS["3d"].population)
+        args.pop = {"backends": 20, "profile": 12}.get(args.mode,
+                                                       PRESETS[f"{args.dim}d"].population)
     modes = {"backends": backends, "short-run": short_run, "profile": profile}
     results = modes[args.mode](args)
     if args.json:
