@@ -150,6 +150,7 @@ class IterationSteps:
                  ranges: list[tuple[float, float]], started_with: str) -> None:
         self.search, self._task, self._out, self._seed = search, task, out, seed
         self._ranges, self._started_with = ranges, started_with
+        self._snapshot, self._stats = search.snapshot(), search.stats()  # the last step's
 
     @property
     def done(self) -> int:

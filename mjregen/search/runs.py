@@ -261,7 +261,7 @@ class GenerationSteps:
                  started_with: str) -> None:
         self.ga, self.best, self._task, self._out = ga, best, task, out
         self._seed, self._started_with = seed, started_with
-        self._genomes: np.ndarray | None = None
+        self._top, self._generation_best = 0, -np.inf  # the last generation's (`tell`)
 
     @property
     def done(self) -> int:
