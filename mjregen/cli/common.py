@@ -28,34 +28,30 @@ def starts_count(text: str) -> int:
 
 def start_index(text: str) -> int:
     """argparse type of --start: a start's index, a whole number >= 0."""
-    value = _whole(text, "start")
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"a start is a whole number >= 0, got {text}")
-    return value
+    return _whole_at_least(text, "start", 0, "a start is a whole number >= 0")
 
 
 def seed(text: str) -> int:
     """argparse type of --seed: a whole number >= 0 (numpy's seeds)."""
-    value = _whole(text, "seed")
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"a seed is a whole number >= 0, got {text}")
-    return value
+    return _whole_at_least(text, "seed", 0, "a seed is a whole number >= 0")
 
 
 def workers(text: str) -> int:
     """argparse type of --workers: a whole number >= 1 (omit the flag for all cores)."""
-    value = _whole(text, "workers")
-    if value < 1:
-        raise argparse.ArgumentTypeError(
-            f"--workers needs at least 1 (omit it to use all cores), got {text}")
-    return value
+    return _whole_at_least(text, "workers", 1,
+                           "--workers needs at least 1 (omit it to use all cores)")
 
 
 def positive(text: str) -> int:
     """argparse type of a count: a whole number >= 1."""
-    value = _whole(text, "the count")
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"a count is a whole number >= 1, got {text}")
+    return _whole_at_least(text, "the count", 1, "a count is a whole number >= 1")
+
+
+def _whole_at_least(text: str, name: str, low: int, problem: str) -> int:
+    """`text` as a whole number >= `low`, else argparse's error "`problem`, got `text`"."""
+    value = _whole(text, name)
+    if value < low:
+        raise argparse.ArgumentTypeError(f"{problem}, got {text}")
     return value
 
 
