@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Keep the records of results run folders in records/results/ (tracked in git).
+"""Keep the records of results run folders in records/ (tracked in git).
 
 A record holds what a resume needs of an unfinished run and what the results report needs of
 a finished one. Of a GA run ``runs/results/<condition>/seed_<n>`` (an evolution, or a
@@ -15,9 +15,12 @@ config.json, metrics.csv, best.npz/.npy and, while unfinished, checkpoint.npz
 (`mjregen.search.qd_runs.run_map_elites` resumes a finished record to its summary), each
 with every recorded evaluation, from which the comparison's report places its archive
 (the archive.npz of a run, every elite's genome, megabytes, is left out). The copy
-replaces the earlier record.
+replaces the earlier record. ``--into`` keeps runs of another results root elsewhere (the
+runs of ``runs/paper``: ``--into records/paper``).
 
-Example: python scripts/snapshot_runs.py runs/results/3d_lstm/seed_0 runs/results/walkers
+Examples:
+  python scripts/snapshot_runs.py runs/results/3d_lstm/seed_0 runs/results/walkers
+  python scripts/snapshot_runs.py --into records/paper runs/paper/3d_ff/seed_*
 """
 
 from __future__ import annotations
@@ -166,27 +169,36 @@ def snapshot(run: Path, destination: Path = DESTINATION) -> Path:
     return _replace(destination / run.parent.name / run.name, fill)
 
 
+def _shown(path: Path) -> Path:
+    """`path` relative to the repository when inside it."""
+    return path.relative_to(ROOT) if path.is_relative_to(ROOT) else path
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("runs", nargs="+", type=Path,
                         help="run folders (or the walkers folder) to keep")
+    parser.add_argument("--into", type=Path,
+                        help=f"records folder (default: {DESTINATION.relative_to(ROOT)}, and "
+                             f"{QD_DESTINATION.relative_to(ROOT)} for quality-diversity runs)")
     args = parser.parse_args(argv)
+    into = None if args.into is None else args.into.resolve()
     for run in args.runs:
         try:
             if (run / "walkers.json").is_file():
-                print(f"{run} -> {snapshot_walkers(run).relative_to(ROOT)}")
+                print(f"{run} -> {_shown(snapshot_walkers(run, into or DESTINATION))}")
                 continue
             if is_map_elites(run):
-                print(f"{run} -> {snapshot_map_elites(run).relative_to(ROOT)}")
+                print(f"{run} -> {_shown(snapshot_map_elites(run, into or QD_DESTINATION))}")
                 continue
-            target = snapshot(run, QD_DESTINATION if (run / "evaluations").is_dir()
-                              else DESTINATION)
+            target = snapshot(run, into or (QD_DESTINATION if (run / "evaluations").is_dir()
+                                            else DESTINATION))
         except FileNotFoundError as error:
             print(f"error: {error}", file=sys.stderr)
             return 2
         info = read_run(target)
         state = "finished" if info.complete else "resumable"
-        print(f"{run} -> {target.relative_to(ROOT)} ({state}): {info.generations_done} of "
+        print(f"{run} -> {_shown(target)} ({state}): {info.generations_done} of "
               f"{info.generations_planned} generations, best {info.best_fitness:.4g} "
               f"(generation {info.best_generation})")
     return 0

@@ -146,6 +146,18 @@ def test_a_snapshot_of_an_unfinished_run_resumes_to_the_uninterrupted_run(tmp_pa
         snapshot_runs.snapshot(tmp_path / "nothing", tmp_path / "records")
 
 
+def test_snapshot_command_keeps_a_record_where_into_says(tmp_path, capsys):
+    job, = ex.evolution_jobs(SMOKE, root=tmp_path / "paper", conditions=["2d_ff"], runs=1,
+                             generations=2)
+    ex.run_evolution_job(job, progress=False)
+    into = tmp_path / "records" / "paper"
+    assert snapshot_runs.main(["--into", str(into), str(job.out)]) == 0
+    record = into / "2d_ff" / "seed_0"
+    assert ex.read_run(record).complete
+    assert (record / "metrics.csv").read_text() == (job.out / "metrics.csv").read_text()
+    assert f"-> {record} (finished)" in capsys.readouterr().out
+
+
 def test_a_snapshot_that_fails_leaves_the_earlier_record_whole(tmp_path):
     record = tmp_path / "records" / "2d_ff" / "seed_0"
     record.mkdir(parents=True)
