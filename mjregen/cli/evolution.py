@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 from pathlib import Path
 
@@ -51,13 +50,18 @@ def add_evolve(subparsers: argparse._SubParsersAction) -> None:
                         help="what the robots are scored on: how far they walk "
                              "('locomotion', the default), or that and how well the same NCA "
                              "regrows them after --cut ('grow-regrow': fitness = locomotion "
-                             "fitness - --cell-cost x wrongly regrown cells)")
+                             "fitness - --cell-cost x wrongly regrown cells; with "
+                             "--regrown-weight the regrown robot walks too)")
     parser.add_argument("--cut", help="grow-regrow: the damage, 'paper' (the default: grid "
                                       "x-indices below the centre) or a half-space such as "
                                       "'z > 4'")
     parser.add_argument("--cell-cost", type=float,
                         help="grow-regrow: voxel lengths of walking one wrongly regrown cell "
                              "costs (default 0.1)")
+    parser.add_argument("--regrown-weight", type=float,
+                        help="grow-regrow: the regrown robot's share of the locomotion "
+                             "fitness, in [0, 1] (default 0: it does not walk; 0.5: the "
+                             "grown and the regrown robot count alike)")
     parser.add_argument("--dim", type=int, choices=(2, 3), help="2D or 3D robots (default 3)")
     parser.add_argument("--net", choices=("ff", "lstm"), help="NCA network (default ff)")
     add_ga_arguments(parser, preset_help="GA preset (default: 2d or 3d by --dim)")
@@ -88,7 +92,7 @@ def _evolve(args: argparse.Namespace) -> int:
         raise MjregenError("--workers sets the process, thread or ray backend's workers; "
                            "--backend serial runs one evaluation at a time")
     if optimizer(args) == "map-elites":
-        if args.task not in (None, "locomotion") or args.cut or args.cell_cost is not None:
+        if args.task not in (None, "locomotion") or args.cut or _regrowth_flags(args):
             raise MjregenError("MAP-Elites searches the locomotion task only")
         return run_map_elites_command(args)
     given = [flag for flag, value in (("--descriptors", args.descriptors), ("--cells", args.cells),
@@ -100,7 +104,8 @@ def _evolve(args: argparse.Namespace) -> int:
         task, ga, seed = _stored_run(args)
         nca, physics, duration = task.nca, task.physics, task.duration
         starts, start_seed = task.starts, task.start_seed
-        regrowth = ({"cut": task.cut, "cell_cost": task.cell_cost}
+        regrowth = ({"cut": task.cut, "cell_cost": task.cell_cost,
+                     "regrown_weight": task.regrown_weight}
                     if isinstance(task, GrowRegrowTask) else None)
     else:
         dim = args.dim or 3
@@ -128,25 +133,31 @@ def _evolve(args: argparse.Namespace) -> int:
     return 0
 
 
-def _regrowth_objective(args: argparse.Namespace, nca) -> dict | None:
-    """--cut and --cell-cost of a new grow-regrow run of `nca` (an NCAConfig), None for the
-    locomotion task."""
-    if args.task != "grow-regrow":
-        if args.cut is not None or args.cell_cost is not None:
-            raise MjregenError("--cut and --cell-cost belong to --task grow-regrow")
-        return None
-    from mjregen.grid import half_space_mask
-    from mjregen.tasks.grow_regrow import PAPER_CUT, cut_condition
+def _regrowth_flags(args: argparse.Namespace) -> list[str]:
+    """The grow-regrow flags given."""
+    return [flag for flag, value in (("--cut", args.cut), ("--cell-cost", args.cell_cost),
+                                     ("--regrown-weight", args.regrown_weight))
+            if value is not None]
 
-    cut = args.cut or PAPER_CUT
+
+def _regrowth_objective(args: argparse.Namespace, nca) -> dict | None:
+    """--cut, --cell-cost and --regrown-weight of a new grow-regrow run of `nca` (an
+    NCAConfig), None for the locomotion task."""
+    if args.task != "grow-regrow":
+        if _regrowth_flags(args):
+            raise MjregenError(f"{', '.join(_regrowth_flags(args))}: grow-regrow settings; "
+                               "add --task grow-regrow")
+        return None
+    from mjregen.tasks.grow_regrow import PAPER_CUT, GrowRegrowTask
+
+    objective = {"cut": args.cut or PAPER_CUT,
+                 "cell_cost": 0.1 if args.cell_cost is None else args.cell_cost,
+                 "regrown_weight": 0.0 if args.regrown_weight is None else args.regrown_weight}
     try:
-        half_space_mask(nca.grid_shape, cut_condition(cut, nca.grid_size))
+        GrowRegrowTask(nca=nca, **objective)
     except ValueError as error:
-        raise MjregenError(f"--cut {cut!r}: {error}") from None
-    cell_cost = 0.1 if args.cell_cost is None else args.cell_cost
-    if not (math.isfinite(cell_cost) and cell_cost >= 0.0):
-        raise MjregenError(f"--cell-cost must be finite and >= 0, got {cell_cost!r}")
-    return {"cut": cut, "cell_cost": cell_cost}
+        raise MjregenError(f"grow-regrow: {error}") from None
+    return objective
 
 
 def _stored_run(args: argparse.Namespace) -> tuple:
@@ -160,6 +171,7 @@ def _stored_run(args: argparse.Namespace) -> tuple:
         "task": (args.task, "grow-regrow" if regrows else "locomotion"),
         "cut": (args.cut, task.cut if regrows else None),
         "cell-cost": (args.cell_cost, task.cell_cost if regrows else None),
+        "regrown-weight": (args.regrown_weight, task.regrown_weight if regrows else None),
         "pop": (args.pop, ga.population), "gens": (args.gens, ga.generations),
         "truncation": (args.truncation, ga.truncation), "elites": (args.elites, ga.elites),
         "sigma": (args.sigma, ga.sigma), "seed": (args.seed, seed),

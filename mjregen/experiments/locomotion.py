@@ -55,15 +55,17 @@ def evolve_grow_regrow(*, out: str | Path, nca: NCAConfig, ga: GAConfig, seed: i
                        backend: Backend, physics: Physics | None = None,
                        duration: float | None = None, starts: int = DEFAULT_STARTS,
                        start_seed: int | None = None,
-                       cut: str = PAPER_CUT, cell_cost: float = 0.1, resume: bool = False,
+                       cut: str = PAPER_CUT, cell_cost: float = 0.1,
+                       regrown_weight: float = 0.0, resume: bool = False,
                        force: bool = False, progress: bool = True) -> RunSummary:
     """Evolve one NCA whose robot walks far and that regrows it after `cut`
     (`mjregen.tasks.grow_regrow`), into the run folder `out`. Arguments as for
-    `evolve_locomotion`; `cut` ("paper" or a half-space condition) and `cell_cost` (voxel
-    lengths per wrongly regrown cell) as for `GrowRegrowTask`."""
+    `evolve_locomotion`; `cut` ("paper" or a half-space condition), `cell_cost` (voxel
+    lengths per wrongly regrown cell) and `regrown_weight` (the regrown robot's share of the
+    locomotion fitness) as for `GrowRegrowTask`."""
     task = GrowRegrowTask(nca=nca, physics=physics or Physics(), duration=duration,
                           starts=starts, start_seed=seed if start_seed is None else start_seed,
-                          cut=cut, cell_cost=cell_cost)
+                          cut=cut, cell_cost=cell_cost, regrown_weight=regrown_weight)
     return run_evolution(task, ga, seed=seed, out=out, backend=backend,
                          resume=resume, force=force, progress=progress)
 

@@ -4,12 +4,17 @@ The paper evolves two networks, one that grows and one that regrows, and names t
 limitation. Here one genome does both: its NCA grows a robot from the seed (the locomotion
 task), the grown CA state is damaged as in the paper (its cells on one side of a plane
 erased, state, alpha and LSTM memory), and the same NCA runs its growth steps again from
-the damaged state (it keeps its own memory: it is the same network). The fitness adds both:
+the damaged state (it keeps its own memory: it is the same network). The fitness judges the
+regrowth by its form, its function or both:
 
-    fitness = locomotion fitness - cell_cost × (cells - similarity)
+    fitness = (1 - w) × locomotion(grown) + w × locomotion(regrown)
+              - cell_cost × (cells - similarity)
 
 similarity being the cells (of 729 in 3D) of the regrown grid equal to the grown one, so
-each cell the regrowth gets wrong costs `cell_cost` voxel lengths of walking.
+each cell the regrowth gets wrong costs `cell_cost` voxel lengths of walking, and w the
+`regrown_weight`: with w > 0 the regrown robot walks too (from the same starts; a regrown
+robot equal to the grown one is not simulated again), and a robot whose regrowth falls over
+or fails scores as unstable.
 """
 
 from __future__ import annotations
@@ -73,6 +78,8 @@ class GrowRegrowTask:
       physics, duration, starts, start_seed: the walk, as in `LocomotionTask`.
       cut: the damage during evolution: "paper" or a half-space condition ("y > 4").
       cell_cost: voxel lengths of walking one wrongly regrown cell costs.
+      regrown_weight: the share of the regrown robot's locomotion fitness in the fitness, in
+        [0, 1]; 0 (the default) does not walk it.
     """
 
     nca: NCAConfig
@@ -82,11 +89,14 @@ class GrowRegrowTask:
     start_seed: int = 0
     cut: str = PAPER_CUT
     cell_cost: float = 0.1
+    regrown_weight: float = 0.0
     _locomotion: LocomotionTask = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         if not (np.isfinite(self.cell_cost) and self.cell_cost >= 0.0):
             raise ValueError(f"cell_cost must be finite and >= 0, got {self.cell_cost!r}")
+        if not 0.0 <= self.regrown_weight <= 1.0:
+            raise ValueError(f"regrown_weight must be in [0, 1], got {self.regrown_weight!r}")
         half_space_mask(self.nca.grid_shape, cut_condition(self.cut, self.nca.grid_size))
         object.__setattr__(self, "_locomotion", LocomotionTask(
             nca=self.nca, physics=self.physics, duration=self.duration, starts=self.starts,
@@ -95,11 +105,12 @@ class GrowRegrowTask:
     def to_config(self) -> dict:
         """The task as JSON (a run folder's config.json "task" entry)."""
         return {**self._locomotion.to_config(), "task": "grow-regrow", "cut": self.cut,
-                "cell_cost": self.cell_cost}
+                "cell_cost": self.cell_cost, "regrown_weight": self.regrown_weight}
 
     @classmethod
     def from_config(cls, config: dict) -> GrowRegrowTask:
-        """The task `to_config` described.
+        """The task `to_config` described (one without "regrown_weight", from before it
+        existed, has 0).
 
         Raises:
           ValueError: not a grow-regrow task's configuration. KeyError: an entry is missing.
@@ -108,7 +119,9 @@ class GrowRegrowTask:
             raise ValueError(f"not a grow-regrow task: {config.get('task')!r}")
         walk = LocomotionTask.from_config({**config, "task": "locomotion"})
         return cls(nca=walk.nca, physics=walk.physics, duration=walk.duration,
-                   starts=walk.starts, start_seed=walk.start_seed, cut=config["cut"], cell_cost=float(config["cell_cost"]))
+                   starts=walk.starts, start_seed=walk.start_seed, cut=config["cut"],
+                   cell_cost=float(config["cell_cost"]),
+                   regrown_weight=float(config.get("regrown_weight", 0.0)))
 
     @property
     def lowest_fitness(self) -> float:
@@ -116,15 +129,29 @@ class GrowRegrowTask:
         return self._locomotion.lowest_fitness - self.cell_cost * np.prod(self.nca.grid_shape)
 
     def evaluate(self, genomes: np.ndarray, backend: Backend) -> PopulationEvaluation:
-        """Score a population of genomes ``(P, G)``: walk, cut, regrow."""
+        """Score a population of genomes ``(P, G)``: walk, cut, regrow (and walk the regrown
+        robots if `regrown_weight` > 0)."""
         growth = grow(self.nca, genomes)
-        walked = self._locomotion.evaluate_grids(growth.grids, backend)
         regrown = regrow_after_cut(self.nca, genomes, growth, self.cut)
         score = own_similarity(regrown, growth.grids)
-        cells = int(np.prod(self.nca.grid_shape))
+        population, cells = len(genomes), int(np.prod(self.nca.grid_shape))
+        walking = growth.grids if not self.regrown_weight else np.concatenate(
+            [growth.grids, regrown])
+        walked = self._locomotion.evaluate_grids(walking, backend)
+        grown, again = slice(0, population), slice(population, None)
+        weight = self.regrown_weight
+        locomotion = walked.fitness[grown]
+        details = {name: values[grown] for name, values in walked.details.items()}
+        stable, failed = walked.stable[grown], walked.failed[grown]
+        if weight:
+            locomotion = (1 - weight) * locomotion + weight * walked.fitness[again]
+            details.update({f"regrown_{name}": walked.details[name][again]
+                            for name in ("distance", "voxels")})
+            details["regrown_locomotion"] = walked.fitness[again]
+            stable, failed = stable & walked.stable[again], failed | walked.failed[again]
+            locomotion = np.where(stable, locomotion, self._locomotion.lowest_fitness)
         return PopulationEvaluation(
-            fitness=walked.fitness - self.cell_cost * (cells - score), grids=walked.grids,
-            details={**walked.details, "locomotion": walked.fitness, "similarity": score},
-            stable=walked.stable, failed=walked.failed, errors=walked.errors,
-            tracebacks=walked.tracebacks, n_distinct=walked.n_distinct,
+            fitness=locomotion - self.cell_cost * (cells - score), grids=growth.grids,
+            details={**details, "locomotion": walked.fitness[grown], "similarity": score},
+            stable=stable, failed=failed, errors=walked.errors, tracebacks=walked.tracebacks,
             sim_cpu_time=walked.sim_cpu_time)

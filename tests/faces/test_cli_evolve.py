@@ -118,4 +118,20 @@ def test_grow_regrow_runs_resume_and_refuse_other_settings(tmp_path, capsys):
     assert main(["evolve", "--out", str(out), "--resume", "--cell-cost", "1", "--quiet"]) == 1
     assert "--cell-cost 1.0 (run has 0.3)" in capsys.readouterr().err
     assert main(["evolve", *TINY, "--cut", "x < 3", "--out", str(tmp_path / "b")]) == 1
-    assert "belong to --task grow-regrow" in capsys.readouterr().err
+    assert "--cut: grow-regrow settings; add --task grow-regrow" in capsys.readouterr().err
+
+
+def test_grow_regrow_judged_by_the_regrown_walk_too(tmp_path, capsys):
+    out = tmp_path / "run"
+    assert main(["evolve", *TINY, "--task", "grow-regrow", "--regrown-weight", "0.5",
+                 "--cell-cost", "0", "--gens", "1", "--backend", "serial", "--out",
+                 str(out)]) == 0
+    config = json.loads((out / "config.json").read_text())["task"]
+    assert (config["regrown_weight"], config["cell_cost"]) == (0.5, 0.0)
+    assert main(["evolve", "--out", str(out), "--resume", "--regrown-weight", "1",
+                 "--quiet"]) == 1
+    assert "--regrown-weight 1.0 (run has 0.5)" in capsys.readouterr().err
+    assert main(["evolve", *TINY, "--task", "grow-regrow", "--regrown-weight", "2", "--out",
+                 str(tmp_path / "b")]) == 1
+    assert "regrown_weight must be in [0, 1], got 2.0" in capsys.readouterr().err
+    assert not (tmp_path / "b").exists()

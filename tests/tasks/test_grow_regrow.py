@@ -55,11 +55,42 @@ def test_fitness_is_the_walk_minus_the_wrongly_regrown_cells():
     assert np.allclose(free.evaluate(genomes, SerialBackend()).fitness, walk.fitness)
 
 
+def test_a_regrown_weight_walks_the_regrown_robot_too():
+    config = NCAConfig(dim=2, kind="ff")
+    genomes = random_genomes(config, 5, seed=4)
+    task = GrowRegrowTask(nca=config, physics=FAST, duration=0.02, cell_cost=0.25,
+                          regrown_weight=0.25)
+    result = task.evaluate(genomes, SerialBackend())
+    walking = LocomotionTask(nca=config, physics=FAST, duration=0.02)
+    growth = grow(config, genomes)
+    regrown = regrow_after_cut(config, genomes, growth)
+    grown_walk = walking.evaluate_grids(growth.grids, SerialBackend())
+    regrown_walk = walking.evaluate_grids(regrown, SerialBackend())
+    assert not np.array_equal(regrown, growth.grids)  # some regrowth differs: walked anew
+    assert np.array_equal(result.details["regrown_locomotion"], regrown_walk.fitness)
+    assert np.array_equal(result.details["regrown_distance"], regrown_walk.details["distance"])
+    assert np.array_equal(result.details["locomotion"], grown_walk.fitness)
+    score = own_similarity(regrown, growth.grids)
+    expected = 0.75 * grown_walk.fitness + 0.25 * regrown_walk.fitness - 0.25 * (49 - score)
+    stable = grown_walk.stable & regrown_walk.stable
+    assert stable.all()  # so that the mix is what is compared
+    assert np.allclose(result.fitness, expected)
+    assert result.grids.shape == growth.grids.shape and result.n_distinct == len(
+        {g.tobytes() for g in growth.grids})
+
+
 def test_configuration_round_trip_and_bad_settings():
     task = GrowRegrowTask(nca=NCAConfig(dim=3, kind="lstm"), duration=0.3, cut="z > 4",
                           cell_cost=0.2)
     again = GrowRegrowTask.from_config(task.to_config())
     assert again == task and again.to_config() == task.to_config()
+    weighted = GrowRegrowTask(nca=NCAConfig(dim=3), regrown_weight=0.5)
+    assert GrowRegrowTask.from_config(weighted.to_config()).regrown_weight == 0.5
+    earlier = {k: v for k, v in task.to_config().items() if k != "regrown_weight"}
+    assert GrowRegrowTask.from_config(earlier) == task  # written before the weight existed
+    for weight in (-0.1, 1.5, float("nan")):
+        with pytest.raises(ValueError, match="regrown_weight"):
+            GrowRegrowTask(nca=NCAConfig(dim=3), regrown_weight=weight)
     with pytest.raises(ValueError, match="cell_cost"):
         GrowRegrowTask(nca=NCAConfig(dim=3), cell_cost=-1.0)
     with pytest.raises(ValueError, match="axis"):
