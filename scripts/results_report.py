@@ -574,11 +574,14 @@ class Report:
         self.add("The paper needed two networks, one that grows a walker and one that regrows "
                  "it. Here one NCA is evolved for both (`--task grow-regrow`: fitness = "
                  "locomotion fitness − cell cost × cells wrongly regrown after the paper's cut, "
-                 "from its own grown CA state, memory included). Its best robot walks, is cut "
+                 "from its own grown CA state, memory included; with a regrown weight w > 0 the "
+                 "locomotion fitness is (1 − w) × the grown robot's + w × the regrown robot's, "
+                 "`--regrown-weight`). Its best robot walks, is cut "
                  "(the paper's cut and 8 random half-space cuts) and regrown by the same NCA; the "
                  "original, damaged and regrown robots of the paper's cut walk as in Table 1. "
                  "Beside it, the best growth-only NCA of the same budget (`3d_<net>`).", "",
-                 "| run | GA (pop × gens done) | cell cost | fitness | distance | similarity "
+                 "| run | GA (pop × gens done) | cell cost, regrown weight | fitness | distance | "
+                 "similarity "
                  "after the paper's cut (of 729) | after random cuts: mean (min) | damaged / "
                  "regrown distance (% of original) | growth-only best distance (same budget) | "
                  "distance / growth-only |",
@@ -596,7 +599,8 @@ class Report:
             percent = {role: 100 * distance[role] / distance["original"]
                        if distance["original"] else math.nan for role in ("damaged", "regrown")}
             self.add(f"| {run.condition} seed {run.seed} | {run.config['ga']['population']} × "
-                     f"{run.generations_done} | {run.config['task']['cell_cost']:g} | "
+                     f"{run.generations_done} | {run.config['task']['cell_cost']:g}, "
+                     f"{run.config['task'].get('regrown_weight', 0.0):g} | "
                      f"{meta['fitness']:.4g} | {fmt_distance(distance['original'], 4)} | "
                      f"{report.similarity['paper']} | {np.mean(cuts):.1f} ({min(cuts)}) | "
                      f"{fmt_distance(distance['damaged'], 4)} ({percent['damaged']:.0f} %) / "

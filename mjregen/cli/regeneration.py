@@ -39,7 +39,9 @@ def add_regen(subparsers: argparse._SubParsersAction) -> None:
                         "(regrowth.npz of a run, or a shipped one) records, from the damage it "
                         "records, and walk the three robots (no --out needed)")
     parser.add_argument("--damage", help="cells removed, e.g. 'x < 4' (default: the paper's cut, "
-                        "x below the grid centre)")
+                        "x below the grid centre), or 'seed': every cell but the paper's seed, so "
+                        "that the NCA grows the robot from the seed (its regrowth.npz, given to "
+                        "--checkpoint, then grows the robot and regrows it from its grown state)")
     parser.add_argument("--net", choices=("ff", "lstm"), help="regrowth NCA (default ff)")
     add_ga_arguments(parser, preset_help="GA preset (default: regen, the paper's)")
     parser.add_argument("--seed", type=seed, default=0, help="seed of the GA (default 0)")

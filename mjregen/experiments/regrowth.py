@@ -43,6 +43,7 @@ from mjregen.tasks.regrowth import (
 )
 
 ROLES = ("original", "damaged", "regrown")
+SEED_DAMAGE = "seed"  # every cell erased but the seed: the NCA grows the robot from the seed
 
 
 @dataclass(frozen=True)
@@ -139,7 +140,10 @@ def run_regrowth(*, source: RegrowthSource, out: str | Path, damage: str | None 
     Args:
       source: the original robot and its CA state (`regrowth_source`).
       damage: cells removed, a half-space such as "x < 4"; None = the paper's cut (x below
-        the grid centre).
+        the grid centre); `SEED_DAMAGE` ("seed") = every cell but the paper's seed, so that
+        the evolved NCA grows the robot from the seed: where it grows it exactly, its
+        regrowth.npz is an NCA whose grown CA state a later regrowth can start from
+        (``regrowth_source(checkpoint=...)``, start "grown").
       net: the regrowth NCA's network, "ff" or "lstm".
       ga: the GA; None = the paper's regrowth preset.
       seed: the GA's seed.
@@ -156,14 +160,15 @@ def run_regrowth(*, source: RegrowthSource, out: str | Path, damage: str | None 
     name = name or Path(source.label).stem
     if source.robot.is_empty:
         raise MjregenError(f"{source.label}: an empty robot has nothing to damage or regrow")
-    damaged = paper_cut(source.state) if damage is None else cut_half_space(source.state, damage)
+    config = NCAConfig(dim=source.robot.dim, kind=net)
+    damaged = damaged_state(source.state, damage, config)
     left = damaged_robot(damaged)
-    if left.is_empty or left.n_voxels == source.robot.n_voxels:
-        what = "removes every voxel (nothing is left to regrow from)" if left.is_empty else \
+    nothing_left = not damaged.state.any()  # cells the NCA grows from, before cleaning
+    if nothing_left or left.n_voxels == source.robot.n_voxels:
+        what = "removes every voxel (nothing is left to regrow from)" if nothing_left else \
             "removes no voxel of the robot (there is nothing to regrow)"
         raise MjregenError(f"the damage {damage or 'paper cut'!r} {what}; choose another "
                            "--damage")
-    config = NCAConfig(dim=source.robot.dim, kind=net)
     task = RegrowthTask(nca=config, original=np.asarray(source.robot.grid),
                         damaged=CAState(damaged.state, damaged.alpha, None),
                         provenance={"source": source.label, "start": source.start,
@@ -173,6 +178,17 @@ def run_regrowth(*, source: RegrowthSource, out: str | Path, damage: str | None 
                                 damaged=damaged, source=source, physics=physics,
                                 duration=duration, resume=resume, force=force,
                                 progress=progress)
+
+
+def damaged_state(state: CAState, damage: str | None, config: NCAConfig) -> CAState:
+    """`state` after `damage` (as for `run_regrowth`; "seed": the paper's seed state of
+    `config`'s grid, memory left to the regrowth NCA)."""
+    if damage is None:
+        return paper_cut(state)
+    if damage == SEED_DAMAGE:
+        seed = CAState.seed(config, 1)
+        return CAState(seed.state, seed.alpha, None)
+    return cut_half_space(state, damage)
 
 
 def _regrow_and_walk(task: RegrowthTask, ga: GAConfig, *, out: Path,

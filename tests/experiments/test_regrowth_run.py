@@ -52,3 +52,18 @@ def test_run_regrowth_returns_what_it_writes(tmp_path):
     metadata = load_nca(tmp_path / "run" / "regrowth.npz")[1]  # what it regrows, as run
     for key in ("source", "start", "damage", "original", "damaged_state", "damaged_alpha"):
         assert metadata[key] == config["task"][key], key
+
+
+def test_damage_seed_evolves_an_nca_that_grows_the_robot_from_the_seed(tmp_path):
+    physics = Physics().replace(settle_time=0.05)
+    run = run_regrowth(source=regrowth_source(robot=WALKER_2D), out=tmp_path / "run",
+                       damage="seed", ga=TINY_GA, seed=1, physics=physics, duration=0.05,
+                       progress=False)
+    config = json.loads((tmp_path / "run" / "config.json").read_text())["task"]
+    assert config["damage"] == "seed"
+    assert np.count_nonzero(config["damaged_state"]) == 1  # the seed, at the centre
+    assert config["damaged_state"][3][3] != 0
+    # its regrowth NCA, given as a checkpoint, grows what the run regrew: a grown start
+    grown = regrowth_source(checkpoint=tmp_path / "run" / "regrowth.npz")
+    assert grown.start == "grown" and grown.robot == run.robots["regrown"]
+    assert np.array_equal(grown.state.state[0].numpy(), run.robots["regrown"].grid)
