@@ -13,9 +13,10 @@ name it. Each robot is walked in mjregen
   - with its grid rotated by 90, 180 and 270 degrees about z (start 0 each; 2D: mirrored),
   - from the exact start (start shift 0: every voxel on its grid position, what every
     evolution scored before the start shift),
-and in the paper's engine (3D only: the engine runs 3D grids). A robot transfers
-(`TRANSFER_RULE`) when the fresh starts and the rotations keep >= 90 % of its distance on
-average and the engine walks it >= 80 % as far.
+and in the paper's engine (3D only: the engine runs 3D grids), by
+`mjregen.validation.transfer.measure_transfer`. A robot transfers (`TRANSFER_RULE`) when the
+fresh starts and the rotations keep >= 90 % of its distance on average and the engine walks
+it >= 80 % as far.
 
 ``--assets DIR`` also measures every evolved walker the package ships (``DIR/nca/
 manifest.json``, ``DIR/robots/walkers/walkers.json``) and writes each one's measurements,
@@ -27,93 +28,17 @@ from __future__ import annotations
 
 import argparse
 import json
-import subprocess
 import sys
-import tempfile
-from dataclasses import asdict, dataclass
+from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
 
+from mjregen.errors import MjregenError
 from mjregen.grid import Robot
 from mjregen.physics import Physics
-from mjregen.physics.simulation import simulate, simulate_starts
-
-KEEP = 0.9  # share of the default distance the shifted starts and the rotations keep
-ENGINE = 0.8  # share of the default distance the paper's engine walks
-TRANSFER_RULE = (f"fresh starts and rotations keep >= {KEEP:.0%} of the distance on average, "
-                 f"and the paper's engine walks >= {ENGINE:.0%} of it")
-
-
-@dataclass
-class Transfer:
-    """One robot's walks, voxel lengths (module docstring); `engine` None for 2D."""
-
-    name: str
-    voxels: int
-    mirror_axes: list[str]
-    starts: list[float]
-    fresh: list[float]
-    rotated: list[float]
-    exact: float
-    engine: float | None
-
-    @property
-    def distance(self) -> float:
-        """The mean over the starts of seed 0."""
-        return float(np.mean(self.starts))
-
-    @property
-    def fresh_kept(self) -> float:
-        return float(np.mean(self.fresh)) / self.distance
-
-    @property
-    def rotated_kept(self) -> float:
-        return float(np.mean(self.rotated)) / self.distance
-
-    @property
-    def engine_ratio(self) -> float | None:
-        return None if self.engine is None else self.engine / self.distance
-
-    @property
-    def transfers(self) -> bool:
-        engine = self.engine_ratio
-        return (self.fresh_kept >= KEEP and self.rotated_kept >= KEEP
-                and engine is not None and engine >= ENGINE)
-
-
-def engine_distance(voxelyze: Path, robot: Robot) -> float | None:
-    """The paper's engine's distance of a 3D robot (voxel lengths); None for 2D."""
-    if robot.dim != 3:
-        return None
-    with tempfile.TemporaryDirectory() as folder:
-        path = Path(folder) / "robot.npy"
-        np.save(path, np.asarray(robot.grid))
-        done = subprocess.run([sys.executable, str(voxelyze / "vxa.py"), str(path)],
-                              capture_output=True, text=True, check=True)
-    return float(json.loads(done.stdout)["distance"])
-
-
-def rotations(robot: Robot) -> list[Robot]:
-    """The robot turned about z: by 90, 180 and 270 degrees in 3D; mirrored in x in 2D (a
-    half turn about z of a robot in the x-z plane)."""
-    grid = np.asarray(robot.grid)
-    if robot.dim == 2:
-        return [Robot(np.ascontiguousarray(grid[::-1, :]))]
-    return [Robot(np.ascontiguousarray(np.rot90(grid, k, axes=(0, 1)))) for k in (1, 2, 3)]
-
-
-def measure(name: str, robot: Robot, *, voxelyze: Path, starts: int) -> Transfer:
-    """Walk `robot` every way (module docstring)."""
-    def distances(seed: int) -> list[float]:
-        return [r.distance for r in simulate_starts(robot, start_seed=seed,
-                                                    starts=range(starts))]
-
-    exact = simulate(robot, physics=Physics().replace(start_shift=0.0))
-    return Transfer(name=name, voxels=robot.n_voxels, mirror_axes=list(robot.mirror_axes()),
-                    starts=distances(0), fresh=distances(1),
-                    rotated=[simulate(r).distance for r in rotations(robot)],
-                    exact=exact.distance, engine=engine_distance(voxelyze, robot))
+from mjregen.validation.engine import PaperEngine
+from mjregen.validation.transfer import TRANSFER_RULE, Transfer, measure_transfer
 
 
 def _cell(value: float | None, digits: int = 2) -> str:
@@ -191,9 +116,14 @@ def main(argv: list[str] | None = None) -> int:
             for name, _, path in (item.rpartition("=") for item in args.robots)]
     if args.assets is not None:
         todo += shipped_walkers(args.assets)
+    try:
+        engine = PaperEngine(args.voxelyze)
+    except MjregenError as error:
+        parser.error(str(error))
     rows = []
     for name, path, manifest, where in todo:
-        rows.append(measure(name, Robot.load(path), voxelyze=args.voxelyze, starts=args.starts))
+        rows.append(measure_transfer(Robot.load(path), name=name, starts=args.starts,
+                                     engine=engine))
         if manifest is not None:
             record(manifest, where, rows[-1], args.starts)
         print(markdown(rows[-1:], args.starts).splitlines()[-1], flush=True)

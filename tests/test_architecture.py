@@ -1,6 +1,6 @@
 """The architecture as a contract: the package's layers (docs/design.md), bottom to top
 
-    base → grid → growth → physics → tasks → search → experiments → faces
+    base → grid → growth → physics → tasks → search → validation → experiments → faces
 
 import only from their own layer or below (imports inside functions included, imports for
 type checking only left out), nothing has an import cycle, and walking a robot imports
@@ -30,6 +30,7 @@ LAYERS = {
     "physics": ("mjregen.physics",),
     "tasks": ("mjregen.tasks",),
     "search": ("mjregen.search",),
+    "validation": ("mjregen.validation",),
     "experiments": ("mjregen.experiments",),
     "faces": ("mjregen.cli", "mjregen.render", "mjregen.figures", "mjregen.env",
               "mjregen.gl", "mjregen.video", "mjregen.__main__"),

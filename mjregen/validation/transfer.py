@@ -1,0 +1,95 @@
+"""Does a robot's walk transfer: from other starts, turned, and in the paper's engine?
+
+A robot transfers (`TRANSFER_RULE`) when fresh starts and its turned copies keep, on
+average, at least `KEEP` of its distance (the mean over its starts of seed 0), and the
+paper's engine walks it at least `ENGINE` as far. A walk that holds only from one exact
+start or one orientation is an artefact of the simulation, not a gait.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from mjregen.grid import Robot
+from mjregen.physics import Physics
+from mjregen.physics.simulation import simulate, simulate_starts
+from mjregen.validation.engine import PaperEngine
+
+KEEP = 0.9  # share of the distance that fresh starts and the turned copies keep
+ENGINE = 0.8  # share of the distance the paper's engine walks
+TRANSFER_RULE = (f"fresh starts and rotations keep >= {KEEP:.0%} of the distance on average, "
+                 f"and the paper's engine walks >= {ENGINE:.0%} of it")
+
+
+@dataclass
+class Transfer:
+    """One robot's walks, voxel lengths.
+
+    Attributes:
+      name, voxels: the robot.
+      mirror_axes: the axes its grid is mirror-symmetric across (`Robot.mirror_axes`).
+      starts: from its starts 0.. of seed 0 (their mean is its distance).
+      fresh: from as many starts of seed 1.
+      rotated: turned about z by 90, 180 and 270 degrees (2D: mirrored in x), start 0.
+      exact: from the exact start (start shift 0).
+      engine: in the paper's engine; None for 2D or without an engine.
+    """
+
+    name: str
+    voxels: int
+    mirror_axes: list[str]
+    starts: list[float]
+    fresh: list[float]
+    rotated: list[float]
+    exact: float
+    engine: float | None
+
+    @property
+    def distance(self) -> float:
+        """The mean over the starts of seed 0."""
+        return float(np.mean(self.starts))
+
+    @property
+    def fresh_kept(self) -> float:
+        return float(np.mean(self.fresh)) / self.distance
+
+    @property
+    def rotated_kept(self) -> float:
+        return float(np.mean(self.rotated)) / self.distance
+
+    @property
+    def engine_ratio(self) -> float | None:
+        return None if self.engine is None else self.engine / self.distance
+
+    @property
+    def transfers(self) -> bool:
+        """`TRANSFER_RULE` (False without an engine's distance)."""
+        engine = self.engine_ratio
+        return (self.fresh_kept >= KEEP and self.rotated_kept >= KEEP
+                and engine is not None and engine >= ENGINE)
+
+
+def rotations(robot: Robot) -> list[Robot]:
+    """The robot turned about z: by 90, 180 and 270 degrees in 3D; mirrored in x in 2D (a
+    half turn about z of a robot in the x-z plane)."""
+    grid = np.asarray(robot.grid)
+    if robot.dim == 2:
+        return [Robot(np.ascontiguousarray(grid[::-1, :]))]
+    return [Robot(np.ascontiguousarray(np.rot90(grid, k, axes=(0, 1)))) for k in (1, 2, 3)]
+
+
+def measure_transfer(robot: Robot, *, name: str = "robot", starts: int = 10,
+                     engine: PaperEngine | None = None) -> Transfer:
+    """Walk `robot` every way `Transfer` lists, with the default physics."""
+    def distances(seed: int) -> list[float]:
+        return [r.distance for r in simulate_starts(robot, start_seed=seed,
+                                                    starts=range(starts))]
+
+    exact = simulate(robot, physics=Physics().replace(start_shift=0.0))
+    return Transfer(name=name, voxels=robot.n_voxels, mirror_axes=list(robot.mirror_axes()),
+                    starts=distances(0), fresh=distances(1),
+                    rotated=[simulate(r).distance for r in rotations(robot)],
+                    exact=exact.distance,
+                    engine=None if engine is None else engine.distance(robot))

@@ -1,0 +1,83 @@
+"""The transfer check (`mjregen.validation`): turned copies of a robot, the rule, and the
+paper's engine as a user's folder holds it (here a stand-in runner that prints a distance)."""
+
+
+import numpy as np
+import pytest
+
+from mjregen.errors import MjregenError
+from mjregen.grid import Robot
+from mjregen.physics.simulation import simulate, simulate_starts
+from mjregen.resources import asset
+from mjregen.validation.engine import PaperEngine
+from mjregen.validation.transfer import (
+    ENGINE,
+    KEEP,
+    Transfer,
+    measure_transfer,
+    rotations,
+)
+
+TRIPOD = Robot.load(asset("robots", "paper", "tripod.npy"))
+
+
+def stand_in_engine(folder, distance: float, *, status: int = 0):
+    """A folder whose vxa.py prints `distance` for any robot (and checks it got one)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "vxa.py").write_text(
+        "import json, sys\nimport numpy as np\n"
+        "grid = np.load(sys.argv[1])\nassert grid.ndim == 3 and grid.any()\n"
+        f"print(json.dumps({{'distance': {distance!r}, 'voxels': int((grid > 0).sum())}}))\n"
+        f"sys.exit({status})\n")
+    return PaperEngine(folder)
+
+
+def test_turned_copies_are_the_same_robot_turned_about_z():
+    turned = rotations(TRIPOD)
+    assert len(turned) == 3
+    grid = np.asarray(TRIPOD.grid)
+    for k, robot in enumerate(turned, start=1):
+        assert robot.n_voxels == TRIPOD.n_voxels
+        assert np.array_equal(np.rot90(np.asarray(robot.grid), -k, axes=(0, 1)), grid)
+        # turned about the vertical: every layer keeps its voxels
+        assert np.array_equal(np.count_nonzero(robot.grid, axis=(0, 1)),
+                              np.count_nonzero(grid, axis=(0, 1)))
+    flat = np.zeros((4, 3), dtype=np.int8)
+    flat[1:3, 1] = [3, 4]
+    mirrored, = rotations(Robot(flat))
+    assert np.array_equal(np.asarray(mirrored.grid), flat[::-1, :])
+
+
+def test_the_rule_needs_fresh_starts_turns_and_the_engine():
+    walks = dict(name="r", voxels=1, mirror_axes=[], starts=[10.0, 10.0], fresh=[9.0, 9.0],
+                 rotated=[9.0, 9.0, 9.0], exact=10.0, engine=8.0)
+    assert Transfer(**walks).transfers  # exactly at the thresholds
+    assert (KEEP, ENGINE) == (0.9, 0.8)
+    for change in ({"fresh": [8.9, 9.0]}, {"rotated": [9.0, 9.0, 8.9]}, {"engine": 7.9},
+                   {"engine": None}):
+        assert not Transfer(**{**walks, **change}).transfers, change
+
+
+def test_measure_transfer_walks_every_way_and_asks_the_engine(tmp_path):
+    engine = stand_in_engine(tmp_path / "engine", 36.5)
+    row = measure_transfer(TRIPOD, name="tripod", starts=2, engine=engine)
+    assert row.starts == [r.distance for r in simulate_starts(TRIPOD, starts=range(2))]
+    assert row.fresh == [r.distance for r in simulate_starts(TRIPOD, start_seed=1,
+                                                              starts=range(2))]
+    assert row.rotated == [simulate(r).distance for r in rotations(TRIPOD)]
+    assert row.engine == 36.5 and row.engine_ratio == pytest.approx(36.5 / row.distance)
+    # the tripod's gait is its own, not an artefact: it keeps its walk every way
+    assert row.fresh_kept > KEEP and row.rotated_kept > KEEP and row.transfers
+    assert measure_transfer(TRIPOD, starts=1).engine is None  # no engine: no verdict
+    assert not measure_transfer(TRIPOD, starts=1).transfers
+
+
+def test_the_engine_is_refused_clearly_when_it_is_not_there_or_fails(tmp_path):
+    with pytest.raises(MjregenError, match="holds no vxa.py"):
+        PaperEngine(tmp_path)
+    broken = stand_in_engine(tmp_path / "broken", 1.0, status=3)
+    with pytest.raises(MjregenError, match="gave no distance: exit status 3"):
+        broken.distance(TRIPOD)
+    sheet = np.zeros((3, 3), dtype=np.int8)
+    sheet[1, 1] = 1
+    assert broken.distance(Robot(sheet)) is None  # 2D: not run
