@@ -246,6 +246,33 @@ def plugin_step_seconds(robot: Robot, steps: int = 2000) -> float:
     return (time.process_time() - cpu) / steps
 
 
+def markdown_section(report: dict) -> list[str]:
+    """docs/performance.md's section on the batched prototype (a `main` report)."""
+    agreement = report["agreement"].values()
+    worst = max(row["largest relative difference"] for row in agreement)
+    identical = sum(row["bit-identical"] for row in agreement)
+    batched = report["batched bond forces: CPU s per voxel"]
+    plugin = report["plugin native step (everything): CPU s per voxel, median"]
+    return [
+        "", "## The bond forces of many robots as one computation (GPU prepared)", "",
+        f"`python benchmarks/batched_bonds.py --robots {report['random robots']}` (design and "
+        "blockers: docs/gpu.md): the plugin's beam bond law as batched tensor operations "
+        f"(torch, float64, on {report['device']} with {report['torch_threads']} threads) over "
+        f"{report['robots']} robots at once ({report['voxels']:,} voxels, {report['bonds']:,} "
+        "bonds: the shipped 3D walkers, the paper's robots and random initial robots).", "",
+        f"- Agreement with the plugin, each robot in a deformed, moving state of its walk: "
+        f"largest difference {worst:.1e} of the largest force; bit-identical in {identical} of "
+        f"{report['robots']} robots (the operations are the plugin's, in its order, but "
+        "torch's vectorised kernels round some differently).",
+        f"- Cost: {1e6 * batched:.2f} CPU µs per voxel for one evaluation of the bond forces "
+        f"({1e6 * report['batched bond forces: wall s per voxel']:.2f} µs wall), against "
+        f"{1e6 * plugin:.2f} CPU µs per voxel for the plugin's whole native step (bonds, "
+        "floor, self-collision, drag, integration): on a CPU the batch is "
+        f"{batched / plugin:.0f} times slower, so batching pays only on a GPU, where it has "
+        "not yet been measured (no GPU was lent to this project's runs).",
+    ]
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--robots", type=int, default=20, help="random initial 3D robots")
@@ -285,7 +312,7 @@ def main(argv: list[str] | None = None) -> int:
     batched_cpu = statistics.median(s[0] for s in seconds) / n_voxels
     batched_wall = statistics.median(s[1] for s in seconds) / n_voxels
     plugin = [plugin_step_seconds(robot) / robot.n_voxels for robot in chosen.values()]
-    report = {"robots": len(chosen), "voxels": n_voxels, "bonds": int(batch.i.numel()),
+    report = {"robots": len(chosen), "random robots": args.robots, "voxels": n_voxels, "bonds": int(batch.i.numel()),
               "device": args.device, "torch_threads": torch.get_num_threads(),
               "agreement": agreement,
               "batched bond forces: CPU s per voxel": batched_cpu,

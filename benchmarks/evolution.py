@@ -8,6 +8,9 @@ evolution.
     python benchmarks/evolution.py short-run [--dim 3] [--pop 100] [--gens 5]
         [--out runs/short3d] [--json out.json]
     python benchmarks/evolution.py profile [--pop 12] [--seed 0] [--json out.json]
+    python benchmarks/evolution.py compare --before DIR [--rounds 2] [--gens 3]
+        [--json throughput.json]
+    python benchmarks/evolution.py starts [--ks 1 3] [--rounds 3] [--json starts.json]
 
 `backends` grows one 3D population (the paper's initial genes, so most robots are large
 blocks) and evaluates it serially, on 2 worker processes and on 2 threads: wall and CPU
@@ -17,7 +20,13 @@ paper's 3D GA (generations reduced) on 2 worker processes: evaluations per secon
 fitness per generation and the projected wall time of the paper's 300 generations
 (`benchmarks/speed.py --evolution` puts it into docs/performance.md). `profile` evaluates
 one 3D population serially under cProfile: the share of its CPU time in the steps, in
-`compile_robot` and in compile's parts (docs/gpu.md).
+`compile_robot` and in compile's parts (docs/gpu.md). `compare` measures the code of this
+checkout beside an earlier one (`--before DIR`, e.g. made by `git worktree add DIR <commit>`),
+interleaved round by round: a real evolution in 3D (population 100) and 2D (population 300)
+of `--gens` generations on 2 worker processes, run as `mjregen evolve` by each checkout's own
+code, and `profile` of each; `benchmarks/speed.py --throughput` puts it into
+docs/performance.md. `starts` measures the CPU cost of a robust score from K starts
+(`simulate_starts`, one compile for all) against one start, and how much of it the compile is.
 """
 
 from __future__ import annotations
@@ -25,15 +34,24 @@ from __future__ import annotations
 import argparse
 import cProfile
 import json
+import os
 import pstats
+import resource
+import statistics
+import subprocess
+import sys
+import tempfile
 import time
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
+from mjregen.grid import Robot
 from mjregen.growth.nca import NCAConfig
 from mjregen.growth.networks import random_genomes
 from mjregen.physics import Physics
+from mjregen.resources import asset
 from mjregen.search.backends import Backend, make_backend
 from mjregen.search.ga import PRESETS
 from mjregen.search.runs import run_evolution
@@ -154,8 +172,10 @@ def profile(args: argparse.Namespace) -> dict:
     stats = pstats.Stats(profiler).stats
     shares = {}
     for label, (file_end, function) in PROFILED.items():
-        cumulative = sum(entry[3] for (path, _, name), entry in stats.items()
-                         if path.endswith(file_end) and name == function)
+        # the largest: a function of that name may call another of the same name (a
+        # stepper's step wrapping the native one), whose time the outer one holds
+        cumulative = max((entry[3] for (path, _, name), entry in stats.items()
+                          if path.endswith(file_end) and name == function), default=0.0)
         shares[label] = cumulative / cpu
     voxels = result.details["voxels"]
     print(f"3D ff population of {args.pop} (seed {args.seed}): {voxels.min():.0f}-"
@@ -166,13 +186,193 @@ def profile(args: argparse.Namespace) -> dict:
             "shares": shares}
 
 
+COMPARED = {3: 100, 2: 300}  # `compare`: dimension -> population (the paper's)
+
+
+def _commit(checkout: Path) -> str:
+    return subprocess.run(["git", "-C", str(checkout), "rev-parse", "--short", "HEAD"],
+                          capture_output=True, text=True, check=True).stdout.strip()
+
+
+def _children_cpu() -> float:
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+def _run_in(checkout: Path, argv: list[str]) -> tuple[float, float]:
+    """Run ``python argv`` with `checkout`'s package first on the path; (wall, CPU) s of it
+    and its worker processes."""
+    environment = {**os.environ, "PYTHONPATH": str(checkout)}
+    wall, cpu = time.perf_counter(), _children_cpu()
+    subprocess.run([sys.executable, *argv], cwd=checkout, env=environment, check=True,
+                   stdout=subprocess.DEVNULL)
+    return time.perf_counter() - wall, _children_cpu() - cpu
+
+
+def _evolution_in(checkout: Path, dim: int, gens: int, seed: int) -> dict:
+    """A real evolution by `checkout`'s `mjregen evolve` (the paper's GA of `dim`, its
+    population, 2 worker processes): wall and CPU s, and its metrics per generation."""
+    with tempfile.TemporaryDirectory() as folder:
+        wall, cpu = _run_in(checkout, [
+            "-m", "mjregen", "evolve", "--dim", str(dim), "--net", "ff", "--preset", f"{dim}d",
+            "--pop", str(COMPARED[dim]), "--gens", str(gens), "--seed", str(seed),
+            "--workers", "2", "--quiet", "--out", str(Path(folder) / "run")])
+        with open(Path(folder) / "run" / "metrics.csv") as handle:
+            header, *rows = [line.strip().split(",") for line in handle if line.strip()]
+    rows = [dict(zip(header, row)) for row in rows]
+    return {"wall_s": wall, "cpu_s": cpu,
+            "generation_wall_s": [float(r["wall_time"]) for r in rows],
+            "evaluations": sum(int(r["evaluations"]) for r in rows),
+            "distinct": [int(r["distinct"]) for r in rows]}
+
+
+def compare(args: argparse.Namespace) -> dict:
+    """This checkout beside `args.before`, interleaved: evolutions (`COMPARED`) and
+    `profile` of each, `args.rounds` rounds."""
+    sides = {"before": Path(args.before).resolve(), "after": Path(__file__).resolve().parents[1]}
+    runs = {f"{side} {dim}d": [] for side in sides for dim in COMPARED}
+    for round_ in range(args.rounds):
+        for dim in COMPARED:
+            for side, checkout in sides.items():
+                run = _evolution_in(checkout, dim, args.gens, args.seed)
+                runs[f"{side} {dim}d"].append(run)
+                print(f"round {round_}: {side} {dim}D {run['evaluations']} evaluations in "
+                      f"{sum(run['generation_wall_s']):.1f} s", flush=True)
+    profiles = {}
+    for side, checkout in sides.items():
+        with tempfile.TemporaryDirectory() as folder:
+            out = Path(folder) / "profile.json"
+            _run_in(checkout, [str(Path(__file__).resolve()), "profile", "--pop", str(args.pop),
+                               "--seed", str(args.seed), "--json", str(out)])
+            profiles[side] = json.loads(out.read_text())
+    return {"commits": {side: _commit(checkout) for side, checkout in sides.items()},
+            "gens": args.gens, "seed": args.seed, "rounds": args.rounds,
+            "populations": {str(dim): pop for dim, pop in COMPARED.items()}, "runs": runs, "profiles": profiles}
+
+
+def starts_cost(args: argparse.Namespace) -> dict:
+    """CPU s of `simulate_starts` with each of `args.ks` starts, and of its compile, per
+    robot (medians of `args.rounds`)."""
+    # imported here: `compare` runs this script's `profile` against earlier checkouts
+    from mjregen.physics import compile_robot
+    from mjregen.physics.simulation import simulate_starts
+
+    names = {name: asset("robots", "paper", f"{name}.npy")
+             for name in ("tripod", "biped", "multiped")}
+    result = {}
+    for name, path in names.items():
+        robot = Robot.load(path)
+        samples = {k: [] for k in args.ks}
+        compiles = {k: [] for k in args.ks}
+        for _ in range(args.rounds):
+            for k in args.ks:
+                cpu = time.process_time()
+                compile_robot(robot, starts=range(k))
+                compiles[k].append(time.process_time() - cpu)
+                cpu = time.process_time()
+                simulate_starts(robot, starts=range(k))
+                samples[k].append(time.process_time() - cpu)
+        one = statistics.median(samples[args.ks[0]])
+        result[name] = {"voxels": robot.n_voxels,
+                        "cpu_s": {str(k): statistics.median(v) for k, v in samples.items()},
+                        "compile_cpu_s": {str(k): statistics.median(v)
+                                          for k, v in compiles.items()},
+                        "x_first": {str(k): statistics.median(v) / one
+                                    for k, v in samples.items()}}
+        print(name, {k: f"{x:.2f}" for k, x in result[name]["x_first"].items()}, flush=True)
+    return {"ks": args.ks, "rounds": args.rounds, "robots": result}
+
+
+def _run_rate(runs: list[dict]) -> tuple[float, float, float]:
+    """(evaluations per wall s of the generations, CPU s per evaluation, wall s per
+    generation): medians over the runs."""
+    rate = statistics.median(r["evaluations"] / sum(r["generation_wall_s"]) for r in runs)
+    cpu = statistics.median(r["cpu_s"] / r["evaluations"] for r in runs)
+    per_generation = statistics.median(statistics.mean(r["generation_wall_s"]) for r in runs)
+    return rate, cpu, per_generation
+
+
+def throughput_section(compared: dict, starts: dict | None) -> list[str]:
+    """docs/performance.md's section on evolutions before and after, the compile profile and
+    the K-start cost (`compare` and `starts` results)."""
+    commits = compared["commits"]
+    lines = [
+        "", "## Evolutions before and after", "",
+        f"`python benchmarks/evolution.py compare --before DIR --rounds {compared['rounds']} "
+        f"--gens {compared['gens']}` (DIR: `git worktree add DIR {commits['before']}`): the "
+        f"code at {commits['before']} and at {commits['after']} each run a real evolution with "
+        f"`mjregen evolve` (the paper's GA, seed {compared['seed']}, {compared['gens']} "
+        "generations, 2 worker processes), interleaved round by round; medians of the rounds. "
+        "CPU s include the worker processes. The projection is the paper's generations at the "
+        "measured seconds per generation: the first generations grow the largest robots, so it "
+        "is pessimistic (the finished paper-size runs below took 1.1-2.6 h in 3D). The code "
+        f"after draws each walk's start shifted by 1e-4 voxel lengths (the robust fitness), "
+        "which changes which robots later generations hold; generation 0 is the same "
+        "population on both sides.", "",
+        "| run | code | evaluations / s | CPU s per evaluation | s per generation | "
+        "paper's generations at that pace (h) | goal (h) |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for dim, generations, goal in ((3, 300, 1.0), (2, 500, 0.5)):
+        for side in ("before", "after"):
+            rate, cpu, per_generation = _run_rate(compared["runs"][f"{side} {dim}d"])
+            lines.append(
+                f"| {dim}D pop {compared['populations'][str(dim)]} × {generations} | "
+                f"{commits[side]} | {rate:.2f} | {cpu:.3f} | {per_generation:.1f} | "
+                f"{per_generation * generations / 3600:.2f} | {goal:g} |")
+    profiles = compared["profiles"]
+    labels = list(profiles["after"]["shares"])
+    lines += [
+        "", "Where one 3D population's CPU time goes (`evolution.py profile`, "
+        f"{profiles['after']['population']} robots of the paper's initial genes, seed "
+        f"{profiles['after']['seed']}, serial, cProfile; shares of the CPU time):", "",
+        f"| part | {commits['before']} | {commits['after']} |", "|---|---|---|",
+        *(f"| {label} | {100 * profiles['before']['shares'].get(label, 0.0):.1f} % | "
+          f"{100 * profiles['after']['shares'][label]:.1f} % |" for label in labels),
+        f"| CPU s per robot (under the profiler) | {profiles['before']['cpu_s_per_robot']:.3f} | "
+        f"{profiles['after']['cpu_s_per_robot']:.3f} |",
+    ]
+    if starts is not None:
+        lines += _starts_lines(starts)
+    return lines
+
+
+def _starts_lines(starts: dict) -> list[str]:
+    ks = [str(k) for k in starts["ks"]]
+    lines = [
+        "", "### A robust score from K starts", "",
+        f"`python benchmarks/evolution.py starts --ks {' '.join(ks)} --rounds "
+        f"{starts['rounds']}`: CPU s of `simulate_starts` (one compile for all K starts) "
+        "against one start, medians. Each start is shifted before the settle, so what K "
+        "starts can share is the compile alone: the last column is the cost that sharing it "
+        "gives, from the compile's share of one start (`compile_robot` timed alone), the "
+        "rest paid once per start. The measured cost is that, to the rounds' noise: the "
+        "walks from the K starts are the cost, and no reuse of the model reduces them.", "",
+        "| robot | voxels | " + " | ".join(f"K = {k}: CPU s (× K = 1, of K)" for k in ks)
+        + " | compile, share of one start | the compile shared, at K = " + ks[-1]
+        + " (of K) |",
+        "|---|---|" + "---|" * len(ks) + "---|---|",
+    ]
+    for name, row in starts["robots"].items():
+        one = row["cpu_s"][ks[0]]
+        compile_share = row["compile_cpu_s"][ks[0]] / one
+        k = int(ks[-1])
+        floor = (1 + (k - 1) * (1 - compile_share)) / k
+        cells = [f"{row['cpu_s'][key]:.3f} ({row['x_first'][key]:.2f}×, "
+                 f"{row['x_first'][key] / int(key):.2f})" for key in ks]
+        lines.append(f"| {name} | {row['voxels']} | " + " | ".join(cells)
+                     + f" | {100 * compile_share:.0f} % | {floor:.2f} |")
+    return lines
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("mode", choices=("backends", "short-run", "profile"))
+    parser.add_argument("mode", choices=("backends", "short-run", "profile", "compare", "starts"))
     parser.add_argument("--pop", type=int, default=None,
                         help="population (default: backends 20, profile 12, short-run the "
                              "paper's 100)")
-    parser.add_argument("--gens", type=int, default=5)
+    parser.add_argument("--gens", type=int, default=None,
+                        help="generations (default: short-run 5, compare 3)")
     parser.add_argument("--dim", type=int, choices=(2, 3), default=3,
                         help="short-run: the robots' dimension (the paper's GA of that "
                              "dimension)")
@@ -187,12 +387,24 @@ def main() -> None:
     parser.add_argument("--backends", nargs="+", default=["serial", "process", "thread"],
                         choices=("serial", "process", "thread"),
                         help="backends to time (efficiency is relative to serial, if timed)")
+    parser.add_argument("--before", type=Path,
+                        help="compare: a checkout of the earlier code (git worktree add DIR "
+                             "COMMIT)")
+    parser.add_argument("--rounds", type=int, default=2,
+                        help="compare and starts: interleaved rounds (medians)")
+    parser.add_argument("--ks", type=int, nargs="+", default=[1, 3],
+                        help="starts: numbers of starts (the first is the reference)")
     parser.add_argument("--json", help="also write the results here")
     args = parser.parse_args()
     if args.pop is None:
         args.pop = {"backends": 20, "profile": 12}.get(args.mode,
                                                        PRESETS[f"{args.dim}d"].population)
-    modes = {"backends": backends, "short-run": short_run, "profile": profile}
+    if args.mode == "compare" and args.before is None:
+        parser.error("compare needs --before DIR")
+    if args.gens is None:
+        args.gens = 3 if args.mode == "compare" else 5
+    modes = {"backends": backends, "short-run": short_run, "profile": profile,
+             "compare": compare, "starts": starts_cost}
     results = modes[args.mode](args)
     if args.json:
         with open(args.json, "w") as handle:
