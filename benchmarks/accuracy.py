@@ -264,11 +264,11 @@ ENGINE_REFERENCE_FRACTION = 0.9 * 0.25 / REFERENCE_DIVISOR
 
 
 def _engine_job(item: tuple) -> tuple:
-    from engine_runs import load_vxa, run_engine
+    from mjregen.validation.engine import PaperEngine
 
     folder, name, grid, fraction = item
-    out = run_engine(load_vxa(folder), grid, dt_fraction=fraction, stop=SETTLE + WALK,
-                     measure_from=SETTLE)
+    out = PaperEngine(folder).run_window(grid, dt_fraction=fraction, stop=SETTLE + WALK,
+                                         measure_from=SETTLE)
     return name, fraction, out
 
 

@@ -23,8 +23,8 @@ from pathlib import Path
 
 import numpy as np
 
-from engine_runs import load_vxa  # benchmarks/, beside this file
 from mjregen.experiments.regrowth import replay_regrowth
+from mjregen.validation.engine import PaperEngine
 
 ROOT = Path(__file__).resolve().parents[1]
 REGEN = ROOT / "assets" / "regen"
@@ -109,7 +109,8 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if not (args.voxelyze / "vxa.py").is_file():
         parser.error(f"{args.voxelyze} holds no vxa.py")
-    rows = measure(load_vxa(args.voxelyze).run, json.loads((REGEN / "manifest.json").read_text()))
+    rows = measure(PaperEngine(args.voxelyze).run,
+                   json.loads((REGEN / "manifest.json").read_text()))
     command = "python benchmarks/regrowth_engine.py --voxelyze DIR"
     args.out.write_text(markdown(rows, paper_table_1(), command))
     if args.json:

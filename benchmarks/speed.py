@@ -45,6 +45,7 @@ from mjregen.physics.compile import CompiledRobot, compile_robot, network_rule_r
 from mjregen.physics.model import robot_layout
 from mjregen.physics.simulation import simulate, simulation_of
 from mjregen.plugin_cache import FLAGS, cpu_features
+from mjregen.validation.engine import PaperEngine
 
 ROOT = Path(__file__).resolve().parents[1]
 MODELS = {
@@ -93,14 +94,6 @@ def initial_population(count: int, seed: int = 0) -> list[Robot]:
             seen.add(grid.tobytes())
             robots.append(Robot(grid))
     return robots[:count]
-
-
-def load_engine(folder: Path):
-    """The ``run(grid) -> {"distance", "cpu_s"}`` of the paper engine's ``vxa.py``."""
-    spec = importlib.util.spec_from_file_location("vxa", folder / "vxa.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module.run
 
 
 def evaluate(robot: Robot, physics: Physics) -> dict:
@@ -661,7 +654,7 @@ def main() -> None:
     unknown = sorted(set(names) - set(table))
     if unknown:
         parser.error(f"unknown robots {unknown}; choose from {sorted(table)}")
-    engine = load_engine(args.voxelyze) if args.voxelyze else None
+    engine = PaperEngine(args.voxelyze).run if args.voxelyze else None
     report = summary(measure(names, args.models, args.rounds, engine), table)
     print(markdown(report, args.models))
     if args.json:

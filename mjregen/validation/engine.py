@@ -1,23 +1,35 @@
 """The paper's engine, Voxelyze as the paper's code runs it, as a user's folder holds it.
 
 mjregen ships no engine: a folder given by the user holds it with its runner ``vxa.py``,
-which writes a robot into the paper's settings, runs the engine and, as a command
-(``python vxa.py ROBOT.npy``), prints ``{"distance": voxel lengths, ...}`` as JSON.
+which provides ``run(grid) -> {"distance": voxel lengths, "cpu_s": ...}`` (one run with the
+paper's settings), ``vxa_text(grid, folder)`` (the robot written into the paper's settings)
+and ``ENGINES["O3"]`` (the optimised engine binary).
 """
 
 from __future__ import annotations
 
-import json
+import functools
+import importlib.util
+import os
+import re
 import subprocess
-import sys
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
+from types import ModuleType
 
 import numpy as np
 
 from mjregen.errors import MjregenError
 from mjregen.grid import Robot
+
+
+@functools.cache
+def _runner(path: Path) -> ModuleType:
+    spec = importlib.util.spec_from_file_location("vxa", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
 
 
 @dataclass(frozen=True)
@@ -31,29 +43,73 @@ class PaperEngine:
     folder: Path
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "folder", Path(self.folder))
+        object.__setattr__(self, "folder", Path(self.folder).resolve())
         if not (self.folder / "vxa.py").is_file():
             raise MjregenError(f"{self.folder} holds no vxa.py: give the folder of the "
                                "paper's engine and its runner")
 
-    def distance(self, robot: Robot) -> float | None:
-        """The distance the engine walks `robot` (voxel lengths, its settle and walk: the
-        paper's 3D evaluation); None for a 2D robot (the engine runs 3D grids).
+    @property
+    def runner(self) -> ModuleType:
+        """The folder's ``vxa.py`` as a module (imported once per folder)."""
+        return _runner(self.folder / "vxa.py")
+
+    def run(self, grid: np.ndarray) -> dict:
+        """One run with the paper's settings: {"distance": voxel lengths, "cpu_s": the
+        engine's CPU seconds, ...} (the runner's answer).
 
         Raises:
-          MjregenError: the runner failed or printed no distance.
+          MjregenError: the runner failed.
+        """
+        try:
+            return self.runner.run(np.asarray(grid))
+        except Exception as error:  # the runner is the user's code: any failure is its
+            raise MjregenError(f"the paper's engine ({self.folder / 'vxa.py'}) failed: "
+                               f"{type(error).__name__}: {error}") from error
+
+    def distance(self, robot: Robot) -> float | None:
+        """The distance the engine walks `robot` (voxel lengths, the paper's 3D settle and
+        walk); None for a 2D robot (the engine runs 3D grids).
+
+        Raises:
+          MjregenError: the runner failed or gave no distance.
         """
         if robot.dim != 3:
             return None
-        with tempfile.TemporaryDirectory() as folder:
-            path = Path(folder) / "robot.npy"
-            np.save(path, np.asarray(robot.grid))
-            done = subprocess.run([sys.executable, str(self.folder / "vxa.py"), str(path)],
-                                  capture_output=True, text=True, check=False)
+        answer = self.run(robot.grid)
         try:
-            if done.returncode:
-                raise ValueError(f"exit status {done.returncode}: {done.stderr.strip()[-300:]}")
-            return float(json.loads(done.stdout)["distance"])
-        except (ValueError, KeyError, TypeError) as error:
+            return float(answer["distance"])
+        except (KeyError, TypeError, ValueError) as error:
             raise MjregenError(f"the paper's engine ({self.folder / 'vxa.py'}) gave no "
-                               f"distance: {error}") from None
+                               f"distance: {answer!r}") from error
+
+    def run_window(self, grid: np.ndarray, *, dt_fraction: float, stop: float,
+                   measure_from: float) -> dict:
+        """One run of the optimised engine with its step at `dt_fraction` of its own
+        stability rule (the paper's 0.9), `stop` s simulated and the distance measured from
+        `measure_from` s: {"distance": voxel lengths, "cpu_s": the engine process's CPU s}.
+
+        Raises:
+          MjregenError: the settings' template lacks one of those elements, or the engine
+            wrote no distance.
+        """
+        with tempfile.TemporaryDirectory() as folder:
+            folder = Path(folder)
+            text = self.runner.vxa_text(np.asarray(grid), folder)
+            for tag, value in (("DtFrac", dt_fraction), ("StopConditionValue", stop),
+                               ("InitCmTime", measure_from)):
+                text, count = re.subn(rf"<{tag}>[^<]*</{tag}>", f"<{tag}>{value!r}</{tag}>",
+                                      text)
+                if count != 1:
+                    raise MjregenError(f"the engine's settings have {count} <{tag}> elements")
+            (folder / "robot.vxa").write_text(text)
+            process = subprocess.Popen([str(self.runner.ENGINES["O3"]), "-f",
+                                        str(folder / "robot.vxa")], stdout=subprocess.DEVNULL,
+                                       stderr=subprocess.DEVNULL, cwd=folder)
+            _, status, usage = os.wait4(process.pid, 0)  # it exits with 1 after a normal run
+            written = folder / "fitness.xml"
+            match = re.search(r"<NormFinalDist>([^<]+)</NormFinalDist>",
+                              written.read_text() if written.exists() else "")
+        if match is None:
+            raise MjregenError(f"the engine wrote no distance (exit status {status >> 8}) at "
+                               f"DtFrac {dt_fraction}")
+        return {"distance": float(match.group(1)), "cpu_s": usage.ru_utime + usage.ru_stime}

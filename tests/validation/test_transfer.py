@@ -1,6 +1,7 @@
 """The transfer check (`mjregen.validation`): turned copies of a robot, the rule, and the
-paper's engine as a user's folder holds it (here a stand-in runner that prints a distance)."""
+paper's engine as a user's folder holds it (here a stand-in runner and engine binary)."""
 
+import sys
 
 import numpy as np
 import pytest
@@ -21,14 +22,49 @@ from mjregen.validation.transfer import (
 TRIPOD = Robot.load(asset("robots", "paper", "tripod.npy"))
 
 
-def stand_in_engine(folder, distance: float, *, status: int = 0):
-    """A folder whose vxa.py prints `distance` for any robot (and checks it got one)."""
+STAND_IN_RUNNER = """
+import sys
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).parent
+ENGINES = {{"O3": HERE / "engine"}}
+DISTANCE = {distance!r}
+
+
+def vxa_text(grid, folder):
+    return ("<VXA><DtFrac>0.9</DtFrac><StopConditionValue>1</StopConditionValue>"
+            "<InitCmTime>0</InitCmTime><Voxels>" + str(int((grid > 0).sum())) + "</Voxels></VXA>")
+
+
+def run(grid):
+    assert grid.ndim == 3 and grid.any()
+    if DISTANCE is None:
+        raise RuntimeError("the engine crashed")
+    return {{"distance": DISTANCE, "cpu_s": 0.0}}
+"""
+# the engine binary's stand-in: its distance spells out the settings it was given
+STAND_IN_ENGINE = """#!{python}
+import re, sys
+text = open(sys.argv[2]).read()
+value = {{tag: float(re.search(f"<{{tag}}>([^<]*)<", text).group(1))
+         for tag in ("DtFrac", "StopConditionValue", "InitCmTime")}}
+distance = 100 * value["DtFrac"] + 10 * value["StopConditionValue"] + value["InitCmTime"]
+if distance > 0:
+    open("fitness.xml", "w").write(f"<NormFinalDist>{{distance!r}}</NormFinalDist>")
+sys.exit(1)
+"""
+
+
+def stand_in_engine(folder, distance: float | None) -> PaperEngine:
+    """A folder whose runner answers `distance` for any 3D robot (None: it fails) and whose
+    engine binary reports the settings it was given."""
     folder.mkdir(parents=True, exist_ok=True)
-    (folder / "vxa.py").write_text(
-        "import json, sys\nimport numpy as np\n"
-        "grid = np.load(sys.argv[1])\nassert grid.ndim == 3 and grid.any()\n"
-        f"print(json.dumps({{'distance': {distance!r}, 'voxels': int((grid > 0).sum())}}))\n"
-        f"sys.exit({status})\n")
+    (folder / "vxa.py").write_text(STAND_IN_RUNNER.format(distance=distance))
+    engine = folder / "engine"
+    engine.write_text(STAND_IN_ENGINE.format(python=sys.executable))
+    engine.chmod(0o755)
     return PaperEngine(folder)
 
 
@@ -72,11 +108,20 @@ def test_measure_transfer_walks_every_way_and_asks_the_engine(tmp_path):
     assert not measure_transfer(TRIPOD, starts=1).transfers
 
 
+def test_a_window_run_gives_the_engine_its_step_duration_and_measurement(tmp_path):
+    engine = stand_in_engine(tmp_path / "engine", 1.0)
+    out = engine.run_window(TRIPOD.grid, dt_fraction=0.45, stop=0.55, measure_from=0.05)
+    assert out["distance"] == pytest.approx(100 * 0.45 + 10 * 0.55 + 0.05)
+    assert out["cpu_s"] >= 0.0
+    with pytest.raises(MjregenError, match="wrote no distance .* at DtFrac 0.0"):
+        engine.run_window(TRIPOD.grid, dt_fraction=0.0, stop=0.0, measure_from=0.0)
+
+
 def test_the_engine_is_refused_clearly_when_it_is_not_there_or_fails(tmp_path):
     with pytest.raises(MjregenError, match="holds no vxa.py"):
         PaperEngine(tmp_path)
-    broken = stand_in_engine(tmp_path / "broken", 1.0, status=3)
-    with pytest.raises(MjregenError, match="gave no distance: exit status 3"):
+    broken = stand_in_engine(tmp_path / "broken", None)
+    with pytest.raises(MjregenError, match="failed: RuntimeError: the engine crashed"):
         broken.distance(TRIPOD)
     sheet = np.zeros((3, 3), dtype=np.int8)
     sheet[1, 1] = 1
