@@ -36,9 +36,8 @@ import numpy as np
 
 from mjregen.errors import MjregenError
 from mjregen.grid import Robot
-from mjregen.physics import Physics
 from mjregen.validation.engine import PaperEngine
-from mjregen.validation.transfer import TRANSFER_RULE, Transfer, measure_transfer
+from mjregen.validation.transfer import Transfer, measure_transfer, transfer_record
 
 
 def _cell(value: float | None, digits: int = 2) -> str:
@@ -82,21 +81,14 @@ def shipped_walkers(assets: Path) -> list[tuple[str, Path, Path, list]]:
 
 def record(manifest: Path, where: list, row: Transfer, starts: int) -> None:
     """Write `row` into the manifest entry at `where` as its "transfer" block."""
-    from datetime import UTC, datetime
-
     from mjregen.fileio import atomic_open
 
     content = json.loads(manifest.read_text())
     entry = content
     for step in where:
         entry = entry[step]
-    entry["transfer"] = {
-        "physics": Physics().to_dict(), "starts": starts, "distance": row.distance,
-        "distances": row.starts, "fresh": float(np.mean(row.fresh)),
-        "fresh_distances": row.fresh, "rotated": row.rotated, "exact_start": row.exact,
-        "engine": row.engine, "rule": TRANSFER_RULE, "transfers": row.transfers,
-        "measured": datetime.now(UTC).date().isoformat(),
-        "command": "python benchmarks/transfer.py --voxelyze DIR --assets assets"}
+    entry["transfer"] = {**transfer_record(row, starts),
+                         "command": "python benchmarks/transfer.py --voxelyze DIR --assets assets"}
     with atomic_open(manifest, "w", overwrite=True) as handle:
         json.dump(content, handle, indent=2)
         handle.write("\n")

@@ -16,6 +16,15 @@ checks every such entry by growing and simulating again.
 there) copied to assets/robots/walkers/walker_<i>.{npz,npy} with walkers.json, each
 re-measured like the NCAs and with its regrowth recovery when <root> has one.
 
+--voxelyze DIR (the paper's engine, `mjregen.validation.engine`) ships a 3D condition's walker by
+whether it transfers, not by the score its run gave it from one start: every run's best robot
+is walked from --starts starts, from as many fresh ones, turned and in the engine
+(`mjregen.validation.transfer`), and the farthest of those that transfer (the mean of its
+starts) is shipped, its measurements recorded in the entry as "transfer"; no robot that
+transfers is an error, and nothing is shipped for that condition. Without it, the run with the
+highest best fitness is shipped and its entry has no "transfer" (measure it with
+benchmarks/transfer.py --assets).
+
 --replace-default also copies the best 3D NCA over assets/nca/walker_3d.npz, the NCA that
 scripts/grow_and_walk.py grows by default (needs --overwrite: it replaces the placeholder).
 
@@ -24,6 +33,7 @@ Nothing that exists is replaced without --overwrite.
 Examples:
   python scripts/ship_assets.py --best --walkers
   python scripts/ship_assets.py --best --condition 3d_ff --overwrite --replace-default
+  python scripts/ship_assets.py --root runs/paper --best --voxelyze DIR --overwrite
 """
 
 from __future__ import annotations
@@ -44,6 +54,13 @@ from mjregen.experiments import paper as ex
 from mjregen.experiments import walkers as wk
 from mjregen.fileio import atomic_open
 from mjregen.grid import Material, Robot
+from mjregen.validation.engine import PaperEngine
+from mjregen.validation.transfer import (
+    Transfer,
+    best_transferring,
+    measure_transfer,
+    transfer_record,
+)
 
 ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_ASSETS = ROOT / "assets"
@@ -147,9 +164,39 @@ def write_manifest(path: Path, manifest: dict) -> None:
         handle.write("\n")
 
 
+def transferring_run(runs: list[ex.RunInfo], engine: PaperEngine, starts: int
+                     ) -> tuple[ex.RunInfo, Transfer]:
+    """The run whose best robot walks farthest among those that transfer, and its walks.
+
+    Raises:
+      MjregenError: no run's best robot transfers (each one's numbers listed).
+    """
+    rows = {}
+    for run in runs:
+        _, npy = run.best_files()
+        rows[run.seed] = measure_transfer(Robot.load(npy), name=f"seed {run.seed}",
+                                          starts=starts, engine=engine)
+        print(f"    {run.path}: {_transfer_line(rows[run.seed])}", flush=True)
+    best = best_transferring(list(rows.values()))
+    if best is None:
+        raise MjregenError(f"no best robot of the {len(runs)} runs of {runs[0].condition} "
+                           "transfers: " + "; ".join(f"{row.name} {_transfer_line(row)}"
+                                                     for row in rows.values()))
+    return next(run for run in runs if rows[run.seed] is best), best
+
+
+def _transfer_line(row: Transfer) -> str:
+    engine = "n/a" if row.engine_ratio is None else f"{row.engine_ratio:.0%}"
+    return (f"distance {row.distance:.2f}, fresh starts keep {row.fresh_kept:.0%}, turned "
+            f"{row.rotated_kept:.0%}, engine {engine}: "
+            + ("transfers" if row.transfers else "does not transfer"))
+
+
 def ship_best(root: Path, assets: Path, *, conditions: list[str] | None, overwrite: bool,
-              replace_default: bool) -> list[dict]:
-    """Ship the best NCA of each condition (see the module docstring); returns the entries."""
+              replace_default: bool, engine: PaperEngine | None = None,
+              starts: int = 10) -> list[dict]:
+    """Ship the best NCA of each condition (see the module docstring: with `engine`, a 3D
+    condition's farthest robot that transfers, from `starts` starts); returns the entries."""
     runs = ex.list_runs(root)
     names = [n for n in (conditions or list(ex.CONDITIONS)) if n in runs]
     missing = [n for n in (conditions or []) if n not in runs]
@@ -169,8 +216,15 @@ def ship_best(root: Path, assets: Path, *, conditions: list[str] | None, overwri
     stamp = {"date": datetime.now(UTC).isoformat(timespec="seconds"),
              "versions": versions(), "git": git_commit()}
     entries = []
+    chosen = {}  # every condition's choice before any file is copied
     for name in names:
-        run = ex.best_run(runs[name])
+        if engine is not None and ex.CONDITIONS[name].dim == 3:
+            print(f"{name}: the transfer check of each run's best robot ...", flush=True)
+            chosen[name] = transferring_run(runs[name], engine, starts)
+        else:
+            chosen[name] = (ex.best_run(runs[name]), None)
+    for name in names:
+        run, transfer = chosen[name]
         npz, npy = run.best_files()
         print(f"{name}: {run.path} generation {run.best_generation} (fitness in the run "
               f"{run.best_fitness:.6g}); growing and simulating again ...", flush=True)
@@ -179,6 +233,9 @@ def ship_best(root: Path, assets: Path, *, conditions: list[str] | None, overwri
         _copy(npz, target, overwrite=overwrite)
         measured["robot"].save(target.with_suffix(".npy"), overwrite=overwrite)
         entry = _entry(name, run, npz, target, measured, stamp, len(runs[name]))
+        if transfer is not None:
+            entry["transfer"] = {**transfer_record(transfer, starts),
+                                 "command": "python scripts/ship_assets.py --best --voxelyze DIR"}
         manifest[target.name] = entry
         entries.append(entry)
         print(f"    fitness {entry['fitness']:.6g}, distance {entry['distance']}, "
@@ -287,6 +344,12 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--assets", type=Path, default=DEFAULT_ASSETS,
                         help="assets folder (default: the repository's)")
     parser.add_argument("--overwrite", action="store_true", help="replace existing assets")
+    parser.add_argument("--voxelyze", type=Path, metavar="DIR",
+                        help="with --best: the paper's engine; ship each 3D condition's "
+                             "farthest robot that transfers (module docstring)")
+    parser.add_argument("--starts", type=int, default=10,
+                        help="with --voxelyze: starts per robot of the transfer check "
+                             "(default 10)")
     return parser
 
 
@@ -296,9 +359,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not (args.best or args.walkers):
         parser.error("choose --best and/or --walkers")
     try:
+        engine = None if args.voxelyze is None else PaperEngine(args.voxelyze)
         if args.best:
             ship_best(args.root, args.assets, conditions=args.condition, overwrite=args.overwrite,
-                      replace_default=args.replace_default)
+                      replace_default=args.replace_default, engine=engine, starts=args.starts)
         if args.walkers:
             ship_walkers(args.root, args.assets, overwrite=args.overwrite)
     except (MjregenError, OSError, ValueError) as error:

@@ -9,6 +9,7 @@ start or one orientation is an artefact of the simulation, not a gait.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from datetime import UTC, datetime
 
 import numpy as np
 
@@ -93,3 +94,20 @@ def measure_transfer(robot: Robot, *, name: str = "robot", starts: int = 10,
                     rotated=[simulate(r).distance for r in rotations(robot)],
                     exact=exact.distance,
                     engine=None if engine is None else engine.distance(robot))
+
+
+def transfer_record(row: Transfer, starts: int) -> dict:
+    """`row` as a shipped walker's manifest block "transfer" (what tests/test_assets.py reads
+    back): the physics, every walk, the rule, the verdict and the date."""
+    return {"physics": Physics().to_dict(), "starts": starts, "distance": row.distance,
+            "distances": row.starts, "fresh": float(np.mean(row.fresh)),
+            "fresh_distances": row.fresh, "rotated": row.rotated, "exact_start": row.exact,
+            "engine": row.engine, "rule": TRANSFER_RULE, "transfers": row.transfers,
+            "measured": datetime.now(UTC).date().isoformat()}
+
+
+def best_transferring(rows: list[Transfer]) -> Transfer | None:
+    """The row of the farthest walker (mean over its starts) among those that transfer;
+    None when none does."""
+    return max((row for row in rows if row.transfers), key=lambda row: row.distance,
+               default=None)

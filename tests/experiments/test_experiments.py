@@ -314,6 +314,49 @@ def test_ship_assets_matches_resimulation_and_never_overwrites(results, tmp_path
     assert ship_assets.main(["--root", str(results), "--assets", str(assets), "--walkers"]) == 1
 
 
+def test_ship_assets_with_the_engine_ships_the_farthest_robot_that_transfers(
+        results, tmp_path, monkeypatch, capsys):
+    from mjregen.validation.transfer import Transfer
+
+    def walks(seed: int, distance: float, engine: float) -> Transfer:
+        return Transfer(name=f"seed {seed}", voxels=1, mirror_axes=[], starts=[distance] * 2,
+                        fresh=[distance] * 2, rotated=[distance] * 3, exact=distance,
+                        engine=engine)
+
+    measured = {}  # robot file -> its walks: seed 0 walks farther but not in the engine
+
+    def stand_in(robot, *, name, starts, engine):
+        seed = int(name.split()[-1])
+        measured[seed] = (robot, starts)
+        return walks(seed, 9.0, 1.0) if seed == 0 else walks(seed, 6.0, 5.5)
+
+    monkeypatch.setattr(ship_assets, "measure_transfer", stand_in)
+    engine = tmp_path / "engine"
+    engine.mkdir()
+    (engine / "vxa.py").write_text("")
+    assets = tmp_path / "assets"
+    (assets / "nca").mkdir(parents=True)
+    (assets / "nca" / "manifest.json").write_text("{}")
+    args = ["--root", str(results), "--assets", str(assets), "--best", "--condition", "3d_ff",
+            "--voxelyze", str(engine), "--starts", "4"]
+    assert ship_assets.main(args) == 0
+    entry = json.loads((assets / "nca" / "manifest.json").read_text())["walker_3d_ff.npz"]
+    runs = ex.list_runs(results)["3d_ff"]
+    assert entry["source"]["seed"] == 1 and entry["transfer"]["transfers"]
+    assert entry["transfer"]["distance"] == 6.0 and entry["transfer"]["starts"] == 4
+    for run in runs:  # each run's best robot was checked, from the starts asked
+        assert measured[run.seed][0] == Robot.load(run.best_files()[1])
+        assert measured[run.seed][1] == 4
+    # no robot that transfers: an error naming each, and nothing shipped
+    monkeypatch.setattr(ship_assets, "measure_transfer",
+                        lambda robot, *, name, starts, engine: walks(0, 9.0, 1.0))
+    before = (assets / "nca" / "manifest.json").read_bytes()
+    capsys.readouterr()
+    assert ship_assets.main(args + ["--overwrite"]) == 1
+    assert "no best robot of the 2 runs of 3d_ff transfers" in capsys.readouterr().err
+    assert (assets / "nca" / "manifest.json").read_bytes() == before
+
+
 def test_results_report_writes_every_section(results, tmp_path, monkeypatch):
     monkeypatch.setenv("MUJOCO_GL", "egl")  # recorded, so that teardown restores the original
     monkeypatch.delenv("MUJOCO_GL")  # the report picks the backend and sets MUJOCO_GL itself
