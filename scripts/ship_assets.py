@@ -192,6 +192,19 @@ def _transfer_line(row: Transfer) -> str:
             + ("transfers" if row.transfers else "does not transfer"))
 
 
+def _choose(runs: dict[str, list[ex.RunInfo]], names: list[str], engine: PaperEngine | None,
+            starts: int) -> dict[str, tuple[ex.RunInfo, Transfer | None]]:
+    """Each condition's run to ship and, for a 3D one with `engine`, its transfer walks."""
+    chosen = {}
+    for name in names:
+        if engine is not None and ex.CONDITIONS[name].dim == 3:
+            print(f"{name}: the transfer check of each run's best robot ...", flush=True)
+            chosen[name] = transferring_run(runs[name], engine, starts)
+        else:
+            chosen[name] = (ex.best_run(runs[name]), None)
+    return chosen
+
+
 def ship_best(root: Path, assets: Path, *, conditions: list[str] | None, overwrite: bool,
               replace_default: bool, engine: PaperEngine | None = None,
               starts: int = 10) -> list[dict]:
@@ -216,13 +229,7 @@ def ship_best(root: Path, assets: Path, *, conditions: list[str] | None, overwri
     stamp = {"date": datetime.now(UTC).isoformat(timespec="seconds"),
              "versions": versions(), "git": git_commit()}
     entries = []
-    chosen = {}  # every condition's choice before any file is copied
-    for name in names:
-        if engine is not None and ex.CONDITIONS[name].dim == 3:
-            print(f"{name}: the transfer check of each run's best robot ...", flush=True)
-            chosen[name] = transferring_run(runs[name], engine, starts)
-        else:
-            chosen[name] = (ex.best_run(runs[name]), None)
+    chosen = _choose(runs, names, engine, starts)  # all of them before any file is copied
     for name in names:
         run, transfer = chosen[name]
         npz, npy = run.best_files()
