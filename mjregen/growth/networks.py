@@ -5,22 +5,18 @@ the paper's ``MorphNet`` layout), a whole population's as batched matmuls
 
 from __future__ import annotations
 
-import functools
-from typing import TYPE_CHECKING
-
 import numpy as np
 import torch
 from torch import nn
 from torch.nn.utils import parameters_to_vector, vector_to_parameters
 
 from mjregen.errors import InvalidGenomeError
-
-if TYPE_CHECKING:  # the configuration's module builds its genome size from these networks
-    from mjregen.growth.nca import NCAConfig
+from mjregen.growth.config import NCAConfig
 
 
 class CellNetwork(nn.Module):
-    """One cell's network, laid out like the paper's ``MorphNet`` (same parameter order).
+    """One cell's network, laid out like the paper's ``MorphNet`` (same parameter order:
+    `NCAConfig.parameter_layout`).
 
     `forward` maps inputs ``(N, n_inputs)`` (already divided by `input_scale`) and, for
     LSTMs, a memory ``(h, c)`` each ``(N, hidden)`` to outputs ``(N, 6)`` and the new memory.
@@ -48,12 +44,6 @@ class CellNetwork(nn.Module):
         h, c = memory
         x, (h, c) = self.lstm(torch.tanh(self.linear1(x)).unsqueeze(0), (h.unsqueeze(0), c.unsqueeze(0)))
         return self.linear2(x[0]), (h[0], c[0])
-
-
-@functools.lru_cache(maxsize=None)
-def parameter_layout(config: NCAConfig) -> tuple[tuple[str, tuple[int, ...]], ...]:
-    """``(name, shape)`` of every parameter of `CellNetwork`, in genome order."""
-    return tuple((name, tuple(p.shape)) for name, p in CellNetwork(config).named_parameters())
 
 
 def genome_to_network(config: NCAConfig, genome: np.ndarray) -> CellNetwork:
@@ -105,10 +95,10 @@ class PopulationNetworks:
         if genomes.ndim == 1:
             genomes = genomes[None]
         flat = torch.tensor(genomes)  # a copy: genomes may be read-only
-        sizes = [int(np.prod(shape)) for _, shape in parameter_layout(config)]
+        sizes = [int(np.prod(shape)) for _, shape in config.parameter_layout]
         params = {
             name: chunk.reshape(len(genomes), *shape)
-            for (name, shape), chunk in zip(parameter_layout(config), torch.split(flat, sizes, dim=1))
+            for (name, shape), chunk in zip(config.parameter_layout, torch.split(flat, sizes, dim=1))
         }
         self.kind = config.kind
         # Per layer: weight as (P, in, out), contiguous, and bias as (P, 1, out).

@@ -60,6 +60,15 @@ def test_parameter_counts_match_the_papers_networks(dim, kind, size):
     assert sum(p.numel() for p in CellNetwork(config).parameters()) == size
 
 
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("kind", ["ff", "lstm"])
+def test_the_configs_genome_layout_is_the_networks(dim, kind):
+    config = NCAConfig(dim=dim, kind=kind, hidden=7, lstm_input=5)
+    network = CellNetwork(config)
+    assert config.parameter_layout == tuple((name, tuple(p.shape))
+                                            for name, p in network.named_parameters())
+
+
 def test_genome_network_round_trip_is_exact():
     for kind in ("ff", "lstm"):
         nca = NCA.random(NCAConfig(kind=kind), seed=5)
