@@ -13,7 +13,6 @@ Unstable simulations keep their penalty fitness; individuals whose evaluation fa
 
 from __future__ import annotations
 
-from collections import OrderedDict
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -22,6 +21,7 @@ import numpy as np
 from mjregen.growth.nca import NCAConfig, grow
 from mjregen.physics import Physics, PhysicsParameterError
 from mjregen.physics.start_state import MAX_STARTS, check_start
+from mjregen.tasks.cache import LRUCache
 from mjregen.tasks.evaluation import (
     PopulationEvaluation,
     RobotJob,
@@ -55,10 +55,10 @@ class LocomotionTask:
     starts: int = DEFAULT_STARTS
     start_seed: int = 0
     cache_size: int = 20_000
-    _cache: OrderedDict = field(default_factory=OrderedDict, init=False, repr=False,
-                                compare=False)
+    _cache: LRUCache = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
+        object.__setattr__(self, "_cache", LRUCache(self.cache_size))
         if isinstance(self.starts, bool) or not isinstance(self.starts, (int, np.integer)) \
                 or self.starts < 1:
             raise ValueError(f"starts must be a whole number >= 1, got {self.starts!r}")
@@ -114,7 +114,7 @@ class LocomotionTask:
         n_voxels = np.count_nonzero(grids.reshape(population, -1), axis=1)
         keys = list(distinct)
         present = [d for d, i in enumerate(firsts) if n_voxels[i] > 0]
-        cached = {d: self._cache[keys[d]] for d in present if keys[d] in self._cache}
+        cached = {d: self._cache.get(keys[d]) for d in present if keys[d] in self._cache}
         # the costliest robots first, so that no worker is left with a large one at the end
         # of the generation while the others wait (results do not depend on the order)
         to_simulate = sorted((d for d in present if d not in cached),
@@ -124,13 +124,9 @@ class LocomotionTask:
             [RobotJob(grids[firsts[d]], self.physics, self.duration, self.starts,
                       self.start_seed) for d in to_simulate],
         )
-        for d in cached:
-            self._cache.move_to_end(keys[d])
         for d, outcome in zip(to_simulate, outcomes):
             if outcome.ok:  # failures are not results: they are retried next time
-                self._cache[keys[d]] = outcome.value
-        while len(self._cache) > self.cache_size:
-            self._cache.popitem(last=False)
+                self._cache.put(keys[d], outcome.value)
         n = len(distinct)
         fitness = np.full(n, EMPTY_FITNESS[dim], dtype=np.float64)
         distance, lowest, spread = np.zeros(n), np.zeros(n), np.zeros(n)

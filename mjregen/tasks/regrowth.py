@@ -11,7 +11,6 @@ occupies.
 
 from __future__ import annotations
 
-from collections import OrderedDict
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -20,6 +19,7 @@ import torch
 
 from mjregen.grid import N_MATERIALS, Robot, half_space_mask
 from mjregen.growth.nca import CAState, Growth, NCAConfig, grow
+from mjregen.tasks.cache import LRUCache
 from mjregen.tasks.evaluation import PopulationEvaluation
 
 if TYPE_CHECKING:  # the search layer hands a task its backend
@@ -167,8 +167,10 @@ class RegrowthTask:
     damaged: CAState
     provenance: dict = field(default_factory=dict, compare=False)
     cache_size: int = 5_000
-    _cache: OrderedDict = field(default_factory=OrderedDict, init=False, repr=False,
-                                compare=False)
+    _cache: LRUCache = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "_cache", LRUCache(self.cache_size))
 
     def to_config(self) -> dict:
         """The task as JSON (a run folder's config.json "task" entry): the NCA, the
@@ -193,19 +195,16 @@ class RegrowthTask:
         """Fitness = `similarity` to the original (no physics; `backend` is not needed)."""
         genomes = np.asarray(genomes, dtype=np.float32)
         keys = [genome.tobytes() for genome in genomes]
+        known = {key: self._cache.get(key) for key in keys if key in self._cache}
         first: dict[bytes, int] = {}  # each genome not seen before, regrown once
         for i, key in enumerate(keys):
-            if key not in self._cache:
+            if key not in known:
                 first.setdefault(key, i)
-        new = list(first.values())
-        if new:
-            for i, grid in zip(new, self.regrow(genomes[new]).grids):
-                self._cache[keys[i]] = grid
-        for key in keys:
-            self._cache.move_to_end(key)
-        grids = np.stack([self._cache[key] for key in keys])
-        while len(self._cache) > max(self.cache_size, len(genomes)):
-            self._cache.popitem(last=False)
+        if first:
+            for key, grid in zip(first, self.regrow(genomes[list(first.values())]).grids):
+                known[key] = grid
+                self._cache.put(key, grid)
+        grids = np.stack([known[key] for key in keys])
         score = similarity(grids, self.original)
         return PopulationEvaluation(
             fitness=score.astype(np.float64), grids=grids,
