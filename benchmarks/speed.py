@@ -44,7 +44,7 @@ from mjregen.physics import Physics, timestep
 from mjregen.physics.compile import CompiledRobot, compile_robot, network_rule_rates
 from mjregen.physics.model import robot_layout
 from mjregen.physics.simulation import simulate, simulation_of
-from mjregen.plugin_cache import FLAGS, cpu_features
+from mjregen.physics.plugin_cache import FLAGS, cpu_features
 from mjregen.validation.engine import PaperEngine
 
 ROOT = Path(__file__).resolve().parents[1]

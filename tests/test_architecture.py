@@ -24,7 +24,7 @@ ROOT = Path(mjregen.__file__).parent
 # touches (the command line, rendering, figures, the dm_control environment).
 LAYERS = {
     "base": ("mjregen.errors", "mjregen.fileio", "mjregen.resources", "mjregen.interrupt",
-             "mjregen.plugin_cache", "mjregen.plotting"),
+             "mjregen.plotting"),
     "grid": ("mjregen.grid",),
     "growth": ("mjregen.growth",),
     "physics": ("mjregen.physics",),

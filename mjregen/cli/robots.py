@@ -283,8 +283,6 @@ def _starts_text(starts) -> str:
 
 
 def add_export(subparsers: argparse._SubParsersAction) -> None:
-    from mjregen.plugin_cache import library_path
-
     parser = subparsers.add_parser(
         "export",
         help="write a robot's MuJoCo model as MJCF XML",
@@ -292,8 +290,8 @@ def add_export(subparsers: argparse._SubParsersAction) -> None:
         "the model `mjregen walk` simulates. With the default physics the voxel plugin "
         "'mjregen.voxels' computes every force and drives the muscles from the end of the "
         "settle, so plain MuJoCo walks the robot with mj_step alone, after loading the "
-        f"plugin library once: mujoco.mj_loadPluginLibrary('{library_path()}') (built on "
-        "first use; mjregen.plugin_library() returns the path). With --physics sphere or "
+        "plugin library once: mujoco.mj_loadPluginLibrary(mjregen.plugin_library()) (built "
+        "on first use; export prints its path). With --physics sphere or "
         "box (pure MuJoCo) the muscles' tendons are the first ones in the file and their "
         "rest lengths are rewritten every step by mjregen.physics.simulation.Simulation. "
         "The walk's starts are keyframes 'start_0' .. (mujoco.mj_resetDataKeyframe): "

@@ -32,7 +32,13 @@ from pathlib import Path
 import mujoco
 
 from mjregen.errors import MjregenError
-from mjregen.plugin_cache import FLAGS, PLUGIN_FILES, PLUGIN_SOURCES, library_path, mujoco_libraries
+from mjregen.physics.plugin_cache import (
+    FLAGS,
+    PLUGIN_FILES,
+    PLUGIN_SOURCES,
+    library_path,
+    mujoco_libraries,
+)
 
 PLUGIN_NAME = "mjregen.voxels"
 STALE_BUILD_S = 3600.0  # a build folder left this long ago was a build killed halfway

@@ -246,7 +246,7 @@ def test_a_cache_folder_that_cannot_be_written_is_one_clear_error(tmp_path):
 def test_an_empty_or_relative_cache_variable_gives_an_absolute_folder(tmp_path, monkeypatch):
     """The loader is handed an absolute path (a relative one it would look up elsewhere);
     an empty variable counts as unset."""
-    from mjregen.plugin_cache import library_path
+    from mjregen.physics.plugin_cache import library_path
 
     monkeypatch.chdir(tmp_path)
     monkeypatch.setenv("MJREGEN_CACHE", "rel")

@@ -1,5 +1,4 @@
-"""Where the voxel plugin's compiled library lives, found without importing MuJoCo (so that
-command-line help and start-up stay cheap).
+"""Where the voxel plugin's compiled library lives, and the flags it is compiled with.
 
 The library is compiled for the machine it is built on (``-march=native``: the vector
 instructions of this CPU), with the IEEE arithmetic of the source as written (no fused
@@ -20,7 +19,7 @@ import os
 import platform
 from pathlib import Path
 
-PLUGIN_SOURCES = Path(__file__).with_name("physics") / "plugin"
+PLUGIN_SOURCES = Path(__file__).with_name("plugin")
 PLUGIN_FILES = ("voxels.h", "voxels.c", "forces.c", "step.c")
 FLAGS = ("-O3", "-march=native", "-std=c11", "-fPIC", "-shared", "-fno-fast-math",
          "-ffp-contract=off", "-fno-math-errno", "-fno-trapping-math")
