@@ -68,7 +68,7 @@ def bond_batch(robots: list[CompiledRobot], device: str) -> BondBatch:
     """The batch of `robots` (compiled with beam bonds)."""
     ends, axes, rows, first = [], [], [], [0]
     for compiled in robots:
-        beams = compiled.beams
+        beams = compiled.bonds.beams
         ends.append(beams.ends + first[-1])
         axes.append(beams.axis)
         muscle = np.zeros((beams.count, 2))
@@ -295,7 +295,7 @@ def main(argv: list[str] | None = None) -> int:
                                   torch.tensor(qvel.reshape(-1, 6), **as_tensor), ep, em)
         theirs = plugin_bond_forces(robot, qpos, qvel, t, dt)
         difference = np.abs(ours.cpu().numpy() - theirs).max() / np.abs(theirs).max()
-        agreement[name] = {"voxels": len(robot.voxel_index), "bonds": robot.beams.count,
+        agreement[name] = {"voxels": len(robot.voxel_index), "bonds": robot.bonds.count,
                            "largest relative difference": float(difference),
                            "bit-identical": bool(difference == 0.0)}
     # the throughput of the whole batch at one strain (the muscles' value matters not here)

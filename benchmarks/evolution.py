@@ -154,7 +154,7 @@ PROFILED = {  # what `profile` reports: (file name end, function name)
     "compile: MuJoCo's spec.compile": ("~", "<built-in method mujoco._specs.compile>"),
     "compile: network time step (Lanczos)": ("timestep.py", "largest_eigenvalue"),
     "compile: the MjSpec's bodies": ("mjcf.py", "voxel_bodies"),
-    "compile: bond arrays": ("model.py", "bond_tables"),
+    "compile: bond arrays": ("model.py", "robot_bonds"),
     "growth": ("nca.py", "grow"),
 }
 

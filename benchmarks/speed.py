@@ -210,7 +210,7 @@ def held_rates(compiled: CompiledRobot, held: np.ndarray) -> tuple[float, float]
     `held` still."""
     layout = robot_layout(compiled.robot, compiled.physics, set(), 0.0)
     return network_rule_rates(compiled.model, layout, compiled.physics, compiled.bonds,
-                              compiled.beams, held=held)
+                              held=held)
 
 
 def chaos(robot: Robot, runs: int = 6, size: float = 1e-13) -> dict:

@@ -16,11 +16,10 @@ import mujoco
 
 from mjregen.errors import CompileError, PhysicsParameterError
 from mjregen.physics import mjcf, voxel_plugin
-from mjregen.physics.model import BeamTable, RobotLayout
+from mjregen.physics.model import RobotBonds, RobotLayout
 from mjregen.physics.params import Physics
 from mjregen.physics.pipelines import MujocoPipeline, VoxelPipeline
 from mjregen.physics.stepper import NativeStepper, unsupported_on
-from mjregen.physics.tendons import BondTable
 
 
 class VoxelBuilder:
@@ -31,13 +30,13 @@ class VoxelBuilder:
     drives_muscle_tendons = False  # the plugin drives the muscles itself
 
     def add_forces(self, spec: mujoco.MjSpec, bodies: list, layout: RobotLayout,
-                   physics: Physics, table: BondTable, beams: BeamTable, drive: str) -> None:
+                   physics: Physics, bonds: RobotBonds, drive: str) -> None:
         """Add the plugin instance that computes every force (`mjcf.add_voxel_plugin`)."""
         voxel_plugin.library()  # registers the plugin with MuJoCo
-        mjcf.add_voxel_plugin(spec, layout, physics, table, beams, drive)
+        mjcf.add_voxel_plugin(spec, layout, physics, bonds, drive)
 
     def rates_model(self, model: mujoco.MjModel, layout: RobotLayout, physics: Physics,
-                    table: BondTable, beams: BeamTable) -> tuple[mujoco.MjModel, Physics]:
+                    bonds: RobotBonds) -> tuple[mujoco.MjModel, Physics]:
         """The model (and its physics) whose plugin forces give the network rule's rates:
         this one."""
         return model, physics
@@ -65,14 +64,14 @@ class MujocoBuilder:
     drives_muscle_tendons = True  # `Simulation` rewrites the muscle tendons' rest lengths
 
     def add_forces(self, spec: mujoco.MjSpec, bodies: list, layout: RobotLayout,
-                   physics: Physics, table: BondTable, beams: BeamTable, drive: str) -> None:
+                   physics: Physics, bonds: RobotBonds, drive: str) -> None:
         """Add the bond tendons and contacts (`mjcf.add_mujoco_bonds`)."""
         if drive == "ctrl":
             raise CompileError("drive 'ctrl' needs the voxel pipeline")
-        mjcf.add_mujoco_bonds(spec, bodies, layout, physics, table)
+        mjcf.add_mujoco_bonds(spec, bodies, layout, physics, bonds.tendons)
 
     def rates_model(self, model: mujoco.MjModel, layout: RobotLayout, physics: Physics,
-                    table: BondTable, beams: BeamTable) -> tuple[mujoco.MjModel, Physics]:
+                    bonds: RobotBonds) -> tuple[mujoco.MjModel, Physics]:
         """The same robot's plugin model with its tendons, floor off (MuJoCo's contacts are
         not the engine floor), and its physics: its plugin forces give the network rule's
         rates."""
@@ -85,7 +84,7 @@ class MujocoBuilder:
             bond_element="tendons", bond_model=physics.pipeline.bond_model,
             collision_radius=0.0), floor=False)
         spec, _ = mjcf.voxel_bodies(layout, physics)
-        mjcf.add_voxel_plugin(spec, layout, physics, table, beams, "waveform")
+        mjcf.add_voxel_plugin(spec, layout, physics, bonds, "waveform")
         return spec.compile(), physics
 
     def stepper(self, model: mujoco.MjModel, data: mujoco.MjData, physics: Physics,

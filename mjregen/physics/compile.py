@@ -20,16 +20,16 @@ from mjregen.grid import Robot
 from mjregen.physics import mjcf, start_state, timestep
 from mjregen.physics.builders import builder_for
 from mjregen.physics.model import (
-    BeamTable,
+    RobotBonds,
     RobotLayout,
-    bond_tables,
     engine_floor_constants,
+    robot_bonds,
     robot_layout,
     voxel_name,
 )
 from mjregen.physics.params import Physics, Scene
 from mjregen.physics.rounding import round_like_mjcf
-from mjregen.physics.tendons import BondTable, MuscleTendons
+from mjregen.physics.tendons import MuscleTendons
 
 BLOCK_STEP_FLOOR = 0.5  # a network step below this × its stiffest bond block's is a failure
 # voxels of the largest robot compiled: one MuJoCo body each, compile time grows with the
@@ -51,9 +51,7 @@ class CompiledRobot:
       masses: ``(n_voxels,)`` float, kg.
       muscles: the "mujoco" pipeline's driven tendons (`Simulation` rewrites their rest
         lengths), or None (no muscles, or the voxel plugin drives them).
-      n_bonds: number of face bonds.
-      bonds: every bond tendon as arrays (`BondTable`).
-      beams: every bond as one beam element (`BeamTable`).
+      bonds: the face bonds as tendons and as beams (`RobotBonds`).
       network_rates: (λ s⁻², μ s⁻¹) behind the network rule's time step (the largest
         eigenvalues of M⁻¹K and M⁻¹C, muscle stiffening included: the step is
         `timestep_safety` × `timestep.stable_step(λ, μ)` before rounding), or None (the
@@ -74,9 +72,7 @@ class CompiledRobot:
     body_ids: np.ndarray
     masses: np.ndarray
     muscles: MuscleTendons | None
-    n_bonds: int
-    bonds: BondTable
-    beams: BeamTable
+    bonds: RobotBonds
     network_rates: tuple[float, float] | None = None
     starts: tuple[int, ...] = ()
     start_seed: int = 0
@@ -150,24 +146,24 @@ def compile_robot(
     starts, start_seed = _checked_starts(starts, start_seed)
     layout = robot_layout(robot, physics, {tuple(int(i) for i in c) for c in clamped},
                           elevation)
-    table, beams, muscles, max_k_per_m = bond_tables(layout, physics)
+    bonds = robot_bonds(layout, physics)
     spec, bodies = mjcf.voxel_bodies(layout, physics)
-    builder.add_forces(spec, bodies, layout, physics, table, beams, drive)
+    builder.add_forces(spec, bodies, layout, physics, bonds, drive)
     starts = _add_starts(spec, layout, physics.scene, robot.grid, starts, start_seed)
-    block_step = timestep.stiffest_bond_step(physics, max_k_per_m)
+    block_step = timestep.stiffest_bond_step(physics, bonds.stiffest_rate)
     spec.option.timestep = round_like_mjcf(block_step)
     model = spec.compile()
     rates = None
     if physics.pipeline.timestep_rule == "network" and layout.bonds:
-        rates = network_rule_rates(model, layout, physics, table, beams)
+        rates = network_rule_rates(model, layout, physics, bonds)
         spec.option.timestep = round_like_mjcf(_network_step(rates, physics, block_step))
         model.opt.timestep = spec.option.timestep
     body_ids = np.array([model.body(body.name).id for body in bodies])
     return CompiledRobot(
         robot=robot, physics=physics, spec=spec, model=model,
         voxel_index=layout.grid_index, body_ids=body_ids, masses=layout.masses,
-        muscles=muscles if builder.drives_muscle_tendons else None, n_bonds=len(layout.bonds),
-        bonds=table, beams=beams, network_rates=rates, starts=starts, start_seed=start_seed,
+        muscles=bonds.muscles if builder.drives_muscle_tendons else None, bonds=bonds,
+        network_rates=rates, starts=starts, start_seed=start_seed,
         plugin_instance=builder.plugin_instance)
 
 
@@ -234,14 +230,13 @@ def _checked_starts(starts: Sequence[int], seed: int) -> tuple[tuple[int, ...], 
 
 
 def network_rule_rates(model: mujoco.MjModel, layout: RobotLayout, physics: Physics,
-                       table: BondTable, beams: BeamTable, *,
+                       bonds: RobotBonds, *,
                        held: np.ndarray | None = None) -> tuple[float, float]:
     """(λ s⁻², μ s⁻¹) of the network rule (`mjregen.physics.timestep`), muscle stiffening
     included; `held`: ``(nv,)`` bool, dofs held still (`timestep.network_rates`). The
     pure-MuJoCo pipeline's network is measured on the same robot's plugin model with its
     tendons, floor off (its contacts are not the engine floor)."""
-    model, physics = builder_for(physics.pipeline).rates_model(model, layout, physics, table,
-                                                                beams)
+    model, physics = builder_for(physics.pipeline).rates_model(model, layout, physics, bonds)
     scene = physics.scene
     floor_k = floor_c = None
     if scene.floor:
@@ -254,5 +249,5 @@ def network_rule_rates(model: mujoco.MjModel, layout: RobotLayout, physics: Phys
     stiffness, damping = timestep.network_rates(model, voxel_size=scene.voxel_size,
                                                 floor_stiffness=floor_k, floor_damping=floor_c,
                                                 held=held)
-    stiffening = timestep.strain_stiffening(beams, scene)
+    stiffening = timestep.strain_stiffening(bonds.beams, scene)
     return stiffening * stiffness, stiffening * damping

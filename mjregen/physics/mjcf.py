@@ -25,7 +25,7 @@ import numpy as np
 from mjregen.grid import Material
 from mjregen.physics import voxel_plugin
 from mjregen.physics.model import (
-    BeamTable,
+    RobotBonds,
     RobotLayout,
     collision_constants,
     drag_viscosity,
@@ -90,13 +90,14 @@ def _numbers(values: Iterable) -> str:
     return " ".join(map(repr, array.tolist()))
 
 
-def plugin_config(layout: RobotLayout, physics: Physics, table: BondTable, beams: BeamTable,
+def plugin_config(layout: RobotLayout, physics: Physics, bonds: RobotBonds,
                   drive: str) -> dict[str, str]:
     """The voxel plugin instance's configuration (attribute -> text): every number it needs,
     written exactly."""
     scene, pipeline = physics.scene, physics.pipeline
     L = scene.voxel_size
     props = [physics.materials[m] for _, m in layout.voxels]
+    beams, table = bonds.beams, bonds.tendons
     floor_stiffness, floor_damping = engine_floor_constants(layout, physics)
     settle, _ = scene.timing(layout.dim)
     n_bonds = len(layout.bonds)
@@ -145,11 +146,11 @@ def plugin_config(layout: RobotLayout, physics: Physics, table: BondTable, beams
 
 
 def add_voxel_plugin(spec: mujoco.MjSpec, layout: RobotLayout, physics: Physics,
-                      table: BondTable, beams: BeamTable, drive: str) -> None:
+                     bonds: RobotBonds, drive: str) -> None:
     """The ``mjregen.voxels`` instance that computes every force (contacts and constraints
     of MuJoCo off), and with drive "ctrl" the two strain actuators."""
     L = physics.scene.voxel_size
-    config = plugin_config(layout, physics, table, beams, drive)
+    config = plugin_config(layout, physics, bonds, drive)
     unknown = set(config) - set(voxel_plugin.ATTRIBUTES)
     if unknown:
         raise AssertionError(f"voxel plugin attributes unknown to the plugin: {sorted(unknown)}")

@@ -86,6 +86,33 @@ class BeamTable:
 
 
 @dataclass(frozen=True)
+class RobotBonds:
+    """A robot's face bonds in the forms its models take (module docstring).
+
+    Attributes:
+      tendons: every bond as its tendon bundle (``bond_element="tendons"`` and the
+        pure-MuJoCo pipeline).
+      beams: every bond as one beam element (``bond_element="beam"``); its axial laws and
+        muscle weights serve either element (the time step's muscle stiffening).
+      muscles: the driven bonds' tendons (their rest lengths follow the muscles), or None
+        (no muscles).
+      stiffest_rate: s⁻², the largest bond stiffness per voxel mass (E·L over the lighter
+        voxel's mass; without bonds, of the stiffest material present): the stiffest-bond
+        time step's.
+    """
+
+    tendons: BondTable
+    beams: BeamTable
+    muscles: MuscleTendons | None
+    stiffest_rate: float
+
+    @property
+    def count(self) -> int:
+        """Face bonds."""
+        return self.beams.count
+
+
+@dataclass(frozen=True)
 class RobotLayout:
     """The robot's voxels in body order and its face bonds (module docstring)."""
 
@@ -130,10 +157,9 @@ def robot_layout(robot: Robot, physics: Physics, clamped: set, elevation: float)
                    clamped=clamped)
 
 
-def bond_tables(layout: RobotLayout, physics: Physics
-                ) -> tuple[BondTable, BeamTable, MuscleTendons | None, float]:
-    """The bonds as tendons and as beams, the driven tendons, and the largest bond
-    stiffness per voxel mass (s⁻², for the stiffest-bond time step).
+def robot_bonds(layout: RobotLayout, physics: Physics) -> RobotBonds:
+    """The robot's bonds as tendons and as beams, its driven tendons, and its stiffest
+    bond's rate.
 
     Raises:
       PhysicsParameterError: the robot's materials have different Poisson ratios.
@@ -190,12 +216,12 @@ def bond_tables(layout: RobotLayout, physics: Physics
         driven_counts = counts[: len(weights)]
         muscles = MuscleTendons(weights=np.repeat(beams.muscle_weights, driven_counts, axis=0),
                                 lateral=table.lateral[: driven_counts.sum()], voxel_size=L)
-    return table, beams, muscles, max_k_per_m
+    return RobotBonds(tendons=table, beams=beams, muscles=muscles, stiffest_rate=max_k_per_m)
 
 
 @dataclass(frozen=True)
 class _BeamRow:
-    """One bond's constants (`bond_tables`)."""
+    """One bond's constants (`robot_bonds`)."""
 
     e_bond: float  # Pa, the voxels' moduli in series
     g_bond: float  # Pa, the bond model's shear modulus

@@ -213,7 +213,7 @@ def test_beams_exist_in_the_voxel_pipeline_only_stepped_with_euler():
         assert model.nplugin == 1 and model.ntendon == 0
     pure = compile_robot(robot, physics=Physics().replace(pipeline="mujoco", integrator="rk4"))
     assert pure.model.opt.integrator == mujoco.mjtIntegrator.mjINT_RK4
-    assert pure.model.nplugin == 0 and pure.model.ntendon == 8 * pure.n_bonds
+    assert pure.model.nplugin == 0 and pure.model.ntendon == 8 * pure.bonds.count
 
 
 def test_twist_moment_is_linear_in_the_angle_beyond_small_bends():

@@ -42,12 +42,13 @@ def test_3d_structure_body_per_voxel_free_joint_8_tendons_per_bond():
     compiled = compile_robot(robot, physics=Physics().replace(collision_radius=0.0))
     model = compiled.model
     assert compiled.pipeline == "voxel" and compiled.plugin_instance == 0
-    assert compiled.n_bonds == 2 * 2 * 2 + 3 * 2 * 1 + 3 * 1 * 2 == 20
+    assert compiled.bonds.count == 2 * 2 * 2 + 3 * 2 * 1 + 3 * 1 * 2 == 20
     assert model.nbody == 12 + 1 and model.njnt == 12
     assert np.all(model.jnt_type == mujoco.mjtJoint.mjJNT_FREE)
     assert model.nplugin == 1 and model.ntendon == model.npair == model.nsite == 0
-    assert compiled.bonds.count == 8 * 20 and np.all(np.bincount(compiled.bonds.bond) == 8)
-    assert compiled.beams.count == 20
+    assert compiled.bonds.tendons.count == 8 * 20
+    assert np.all(np.bincount(compiled.bonds.tendons.bond) == 8)
+    assert compiled.bonds.beams.count == 20
     assert model.nu == 0 and compiled.muscles is None  # no muscle machinery without muscles
     assert np.all(model.geom_contype == 0) and np.all(model.geom_conaffinity == 0)
     assert np.allclose(compiled.masses, 1e-3)
@@ -120,7 +121,7 @@ def test_2d_structure_slide_slide_hinge_4_tendons_per_bond():
     assert np.all(types == [mujoco.mjtJoint.mjJNT_SLIDE, mujoco.mjtJoint.mjJNT_SLIDE,
                             mujoco.mjtJoint.mjJNT_HINGE])
     assert np.allclose(model.jnt_axis.reshape(6, 3, 3)[0], [[1, 0, 0], [0, 0, 1], [0, 1, 0]])
-    assert compiled.n_bonds == 7 and compiled.bonds.count == 4 * 7
+    assert compiled.bonds.count == 7 and compiled.bonds.tendons.count == 4 * 7
     assert [model.body(b).name for b in compiled.body_ids] == \
         [f"voxel_{x}_{z}" for x, z in compiled.voxel_index]
     pure = compile_robot(robot, physics=mujoco_physics(contact_shape="box"))
@@ -151,7 +152,7 @@ def test_bonds_start_unstressed():
     for element in ("tendons", "beam"):
         compiled = compile_robot(robot, physics=Physics().replace(
             bond_element=element, floor=False, drag_ratio=0.0))
-        table, centres = compiled.bonds, compiled.model.body_pos[compiled.body_ids]
+        table, centres = compiled.bonds.tendons, compiled.model.body_pos[compiled.body_ids]
         sites = centres[table.ends] + table.offsets
         length = np.linalg.norm(sites[:, 1] - sites[:, 0], axis=1)
         assert np.allclose(length, table.rest, rtol=1e-6)
@@ -216,13 +217,14 @@ def test_muscle_tendons_come_first_and_cover_exactly_the_muscle_bonds():
     assert compiled.muscles is not None and compiled.muscles.count == 2 * 8
     assert np.allclose(compiled.muscles.weights, [0.07, 0.0])  # half of 0.14, red phase
     assert compiled.model.ntendon == 3 * 8
-    assert set(compiled.bonds.bond[:16]) == {0, 1} and set(compiled.bonds.bond[16:]) == {2}
+    bond = compiled.bonds.tendons.bond
+    assert set(bond[:16]) == {0, 1} and set(bond[16:]) == {2}
     # the voxel plugin drives the same bonds itself: the first two, weights in its config
     plugin = compile_robot(robot)
     assert plugin.muscles is None
-    assert np.allclose(plugin.beams.muscle_weights, [[0.07, 0.0], [0.07, 0.0]])
+    assert np.allclose(plugin.bonds.beams.muscle_weights, [[0.07, 0.0], [0.07, 0.0]])
     codes = robot.grid[tuple(plugin.voxel_index.T)]
-    assert (codes[plugin.beams.ends] == 3).any(axis=1).tolist() == [True, True, False]
+    assert (codes[plugin.bonds.beams.ends] == 3).any(axis=1).tolist() == [True, True, False]
     assert np.allclose(config(plugin)["bond_muscle"], [0.07, 0.0, 0.07, 0.0, 0.0, 0.0])
 
 
@@ -283,7 +285,7 @@ def test_point_contacts_and_collision_spheres_build_the_documented_geoms():
     assert a.run(500) == "" and b.run(500) == ""
     assert np.array_equal(a.data.qpos, b.data.qpos)
     driven = compiled.muscles.count
-    assert not np.allclose(model.tendon_lengthspring[:driven, 0], compiled.bonds.rest[:driven])
+    assert not np.allclose(model.tendon_lengthspring[:driven, 0], compiled.bonds.tendons.rest[:driven])
 
 
 @pytest.mark.parametrize("pipeline", ["voxel", "mujoco"])

@@ -52,7 +52,7 @@ def _both(robot, physics, steps, clamped=(), elevation=0.0):
         assert sim.run(steps) == ""
         mujoco.mj_kinematics(sim.model, sim.data)
         centres = sim.data.xpos[compiled.body_ids]
-        lengths = np.linalg.norm(np.diff(centres[compiled.beams.ends], axis=1)[:, 0], axis=1)
+        lengths = np.linalg.norm(np.diff(centres[compiled.bonds.beams.ends], axis=1)[:, 0], axis=1)
         strain = np.max(np.abs(lengths / physics.scene.voxel_size - 1.0))
         out[pipeline] = sim.data.qpos.copy(), sim.data.qvel.copy(), strain
         steps_of.add(compiled.timestep)
@@ -95,8 +95,8 @@ def test_both_pipelines_hold_the_same_bond_tendons():
     voxel = compile_robot(robot, physics=TENDONS)
     mujoco_pipeline = compile_robot(robot, physics=mujoco_twin(TENDONS))
     assert voxel.model.nplugin == 1 and voxel.model.ntendon == voxel.model.nsite == 0
-    table = voxel.bonds
-    assert table.count == 8 * voxel.n_bonds and np.all(np.bincount(table.bond) == 8)
+    table = voxel.bonds.tendons
+    assert table.count == 8 * voxel.bonds.count and np.all(np.bincount(table.bond) == 8)
     config = voxel.spec.plugins[0].config
     for key, values in (("tendon_stiffness", table.stiffness), ("tendon_damping", table.damping),
                         ("tendon_rest", table.rest), ("tendon_bond", table.bond)):
@@ -109,7 +109,7 @@ def test_both_pipelines_hold_the_same_bond_tendons():
     assert np.array_equal(model.tendon_damping, table.damping)
     assert np.array_equal(model.tendon_lengthspring[:, 0], table.rest)
     for field in ("ends", "offsets", "stiffness", "damping", "rest", "bond", "lateral"):
-        assert np.array_equal(getattr(mujoco_pipeline.bonds, field), getattr(table, field))
+        assert np.array_equal(getattr(mujoco_pipeline.bonds.tendons, field), getattr(table, field))
 
 
 def test_state_is_per_data():

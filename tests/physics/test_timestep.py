@@ -176,7 +176,7 @@ def test_lengthening_muscles_stiffen_their_bonds_contracting_ones_do_not():
     shear mode does."""
     robot = Robot.box((2, 1, 1), Material.MUSCLE_PLUS)
     physics = Physics().replace(beam_law="tendons")
-    beams = compile_robot(robot, physics=physics).beams
+    beams = compile_robot(robot, physics=physics).bonds.beams
     assert beams.axial_law[0, 2] == pytest.approx(2e-6)  # m², D² = 2 L²
     plus = physics.materials[Material.MUSCLE_PLUS]
     symmetric = physics.replace(waveform="symmetric")
@@ -186,7 +186,7 @@ def test_lengthening_muscles_stiffen_their_bonds_contracting_ones_do_not():
     shear = (2.0 + 3.0 * extension ** 2) / 5.0
     assert strain_stiffening(beams, symmetric.scene) == pytest.approx(max(axial, shear),
                                                                       rel=1e-12)
-    engine = compile_robot(robot).beams
+    engine = compile_robot(robot).bonds.beams
     assert np.all(engine.axial_law[:, 1:] == 0.0)  # linear
     assert strain_stiffening(engine, symmetric.scene) == pytest.approx(shear, rel=1e-12)
 
