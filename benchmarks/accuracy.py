@@ -1023,7 +1023,7 @@ def report_text(accuracy: list[dict], orders: list[dict], stability: list[dict],
             f"(to {float(c['converged_spread']):.2g}); differences of fitness below about "
             f"{max(error, float(c['safeties_max']) - float(c['safeties_min'])):.2g} voxel "
             "lengths between such robots are the time step's, not the robots'.")
-    from mjregen.physics.reference import REFERENCE
+    from mjregen.validation.reference import REFERENCE
 
     fidelity_lines = ["| rule | " + " | ".join(c["robot"] for c in chaos) + " |",
                       "|---|" + "---|" * len(chaos)]

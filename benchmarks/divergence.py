@@ -26,7 +26,7 @@ import numpy as np
 from mjregen.grid import Robot
 from mjregen.physics import Physics
 from mjregen.physics.compile import compile_robot
-from mjregen.physics.reference import ROBOT_FILES, load_csv
+from mjregen.validation.reference import ROBOT_FILES, load_csv
 from mjregen.physics.simulation import simulation_of
 
 ROOT = Path(__file__).resolve().parent.parent

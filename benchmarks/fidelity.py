@@ -1,6 +1,6 @@
 """Fidelity: re-run the paper engine's reference cases in mjregen and compare.
 
-Runs every case of `mjregen.physics.reference` with the chosen physics and prints a table
+Runs every case of `mjregen.validation.reference` with the chosen physics and prints a table
 (measure, reference, mjregen, ratio); `--json` writes the numbers.
 
     python benchmarks/fidelity.py [--preset default|paper|box|sphere]
@@ -19,7 +19,7 @@ earlier rules and taken back from today's, the per-voxel divergence, and overlay
 
 `--write-paths assets/reference` writes the engine's COM paths of the three paper robots
 (1 ms samples, from the recordings) to `engine_robot_paths.npz` there: the package's copy,
-which `mjregen.physics.reference` compares paths and headings with.
+which `mjregen.validation.reference` compares paths and headings with.
 
 `--spread 0.5,0.55,...` instead walks each paper robot once per time-step safety (slightly
 different integrations of the same physics: the gaits are chaotic) and prints the
@@ -42,7 +42,7 @@ import numpy as np
 from mjregen.grid import Robot
 from mjregen.physics import Physics, box_physics, paper_physics, sphere_physics
 from mjregen.physics.compile import compile_robot
-from mjregen.physics.reference import (
+from mjregen.validation.reference import (
     CASES,
     ENGINE_PATHS,
     REFERENCE,

@@ -6,7 +6,8 @@ rounding in `rounding`) -> `mjcf` (the `MjSpec`: bodies and the voxel plugin, or
 tendons and contacts) -> `timestep` (decided once) -> `compile` (`compile_robot`) ->
 `stepper` (the native stepper: the C fast path of ``mj_step``) and `simulation`
 (`simulate`, the stability guard, `Result`). `voxel_plugin` builds and loads the plugin's
-library (`plugin/`, C); `reference` runs the small cases recorded from the paper's engine.
+library (`plugin/`, C). The cases recorded from the paper's engine are re-run by
+`mjregen.validation.reference`.
 """
 
 from mjregen.errors import PhysicsParameterError

@@ -1,15 +1,15 @@
 """The paper engine's reference cases re-run in mjregen (docs/fidelity.md): the small
 mechanical cases and the paper's three robots.
 
-The reference numbers are in `mjregen.physics.reference.REFERENCE` (from the engine's trajectories),
-the robots' paths in `mjregen.physics.reference.ENGINE_PATHS` (shipped).
+The reference numbers are in `mjregen.validation.reference.REFERENCE` (from the engine's trajectories),
+the robots' paths in `mjregen.validation.reference.ENGINE_PATHS` (shipped).
 """
 
 import numpy as np
 import pytest
 
 from mjregen.physics import Physics, box_physics, paper_physics, sphere_physics
-from mjregen.physics.reference import CASES, REFERENCE, engine_path, heading_of, path_difference
+from mjregen.validation.reference import CASES, REFERENCE, engine_path, heading_of, path_difference
 
 
 def test_paper_preset_is_the_default_and_round_trips():
@@ -47,7 +47,7 @@ def test_paper_preset_simple_cases_within_10_percent():
     assert beam["sag_end"] == pytest.approx(REFERENCE["cantilever"]["sag_end"], rel=0.10)
 
 
-# the issue's goal for the paper robots against the engine (mjregen.physics.reference.ENGINE_PATHS)
+# the issue's goal for the paper robots against the engine (mjregen.validation.reference.ENGINE_PATHS)
 DISTANCE_RATIO = (0.9, 1.1)
 HEADING_TOLERANCE = 10.0  # degrees
 PATH_TOLERANCE = 5e-3  # m, RMS difference of the planar COM paths over the walk
