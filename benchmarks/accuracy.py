@@ -71,9 +71,9 @@ from mjregen import physics as physics_module
 from mjregen.grid import Material, Robot
 from mjregen.physics import MujocoPipeline, Physics
 from mjregen.physics.compile import compile_robot
-from mjregen.physics.simulation import Simulation
+from mjregen.physics.simulation import Simulation, walk
 from mjregen.physics.start_state import translational_coordinates
-from mjregen.tasks.fitness import VOXEL_COST
+from mjregen.tasks.fitness import VOXEL_COST, locomotion_fitness
 from mjregen.tasks.starts import KEPT
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -147,11 +147,13 @@ def mujoco_twin(physics: Physics) -> Physics:
 
 
 def evaluate(run: Run) -> dict:
-    """Run `run` like `mjregen.physics.simulate`; returns a dict of the outcome.
+    """Run `run`: `mjregen.physics.simulation.walk` of a model whose integrator, step and
+    initial state `run` may change; returns a dict of the outcome.
 
-    Keys: stable, reason, dt, steps, cpu (s of stepping), com_start/com_end ((3,) m),
-    distance (voxel lengths, planar COM displacement after the settle), fitness, max_speed
-    (m/s, fastest voxel at the end), qpos (the final state).
+    Keys: stable, reason, dt, steps, cpu (s of stepping), com_end ((3,) m), distance (voxel
+    lengths, planar COM displacement after the settle; NaN when the walk became unstable),
+    fitness (`locomotion_fitness`), max_speed (m/s, fastest voxel at the end), qpos (the final
+    state). A walk whose fastest voxel ends faster than END_SPEED is unstable too.
     """
     name = run.integrator or getattr(run.physics.pipeline, "integrator", "euler")
     # the voxel plugin starts the muscles at the scene's settle time
@@ -180,24 +182,15 @@ def evaluate(run: Run) -> dict:
         positions = translational_coordinates(model)
         sim.data.qpos[positions] += np.random.default_rng(run.seed).normal(
             0.0, run.perturb * run.physics.scene.voxel_size, int(positions.sum()))
-    n_settle, n_measure = round(run.settle / dt), round(run.measured / dt)
-    cpu0 = time.process_time()
-    reason = sim.run(n_settle)
-    start = sim.com()
-    if not reason:
-        reason = sim.run(n_measure)
-    cpu = time.process_time() - cpu0
-    end = sim.com()
+    result = walk(compiled, sim=sim, duration=run.measured)
+    reason = result.reason
     speed = max_voxel_speed(model, sim.data)
     if not reason and not speed <= END_SPEED:
         reason = f"voxel speed {speed:.3g} m/s > {END_SPEED} m/s at the end"
-    L = run.physics.scene.voxel_size
-    planar = [0, 1] if run.robot.dim == 3 else [0]
-    distance = float(np.linalg.norm(end[planar] - start[planar])) / L
-    fitness = distance - VOXEL_COST * run.robot.n_voxels if run.robot.dim == 3 else distance
-    return {"stable": not reason, "reason": reason, "dt": dt, "steps": sim.steps, "cpu": cpu,
-            "com_start": start, "com_end": end, "distance": distance, "fitness": fitness,
-            "max_speed": speed, "qpos": sim.data.qpos.copy()}
+    return {"stable": not reason, "reason": reason, "dt": dt, "steps": sim.steps,
+            "cpu": result.cpu_time, "com_end": sim.com(), "distance": result.distance,
+            "fitness": locomotion_fitness(result), "max_speed": speed,
+            "qpos": sim.data.qpos.copy()}
 
 
 def max_voxel_speed(model: mujoco.MjModel, data: mujoco.MjData) -> float:
@@ -376,8 +369,7 @@ def load_log(path: Path) -> dict:
     for line in Path(path).read_text().splitlines():
         item = json.loads(line)
         key = tuple(item.pop("key"))
-        for name in ("com_start", "com_end"):
-            item[name] = np.array(item[name])
+        item["com_end"] = np.array(item["com_end"])
         results[key] = item
     return results
 
