@@ -14,7 +14,8 @@ Any MuJoCo program loads an exported robot after one call::
 `library()` loads it in this process (registering the plugin) and returns it as a ctypes
 library, whose two extra entry points (`mjr_step`, `mjr_network_forces`) the fast stepper
 and the time-step rule call. On load the configuration attributes the plugin registers are
-checked against `ATTRIBUTES`, the keys `mjregen.physics.mjcf` writes.
+checked against `ATTRIBUTES`, the keys `mjregen.physics.mjcf` writes, which are read from the
+one table that declares them, ``MJR_ATTRIBUTES`` in ``plugin/voxels.h``.
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ from __future__ import annotations
 import ctypes
 import hashlib
 import os
+import re
 import shutil
 import subprocess
 import tempfile
@@ -43,16 +45,7 @@ from mjregen.physics.plugin_cache import (
 PLUGIN_NAME = "mjregen.voxels"
 STALE_BUILD_S = 3600.0  # a build folder left this long ago was a build killed halfway
 SOURCES = tuple(PLUGIN_SOURCES / name for name in PLUGIN_FILES if name.endswith(".c"))
-ATTRIBUTES = (
-    "dim", "voxel_size", "voxels", "frequency", "start", "waveform", "drive", "phase", "strain",
-    "element", "bonds", "bond_axis", "bond_muscle", "bond_stiffness", "bond_axial_law",
-    "bond_beta", "tendon_bond", "tendon_sites", "tendon_stiffness", "tendon_damping",
-    "tendon_rest", "tendon_lateral2", "floor", "floor_stiffness", "floor_damping",
-    "static_friction", "kinetic_friction", "friction_stop", "friction_stop_time",
-    "collision_radius",
-    "collision_skin", "collision_stiffness", "collision_damping", "collision_hops", "grid",
-    "collides", "drag_linear", "drag_rotational",
-)
+
 
 _lock = threading.Lock()
 _library: ctypes.CDLL | None = None
@@ -60,6 +53,27 @@ _library: ctypes.CDLL | None = None
 
 class NativeBuildError(MjregenError, RuntimeError):
     """The voxel plugin library could not be built or loaded (no C compiler, no headers)."""
+
+
+def declared_attributes(header: Path = PLUGIN_SOURCES / "voxels.h") -> tuple[str, ...]:
+    """The configuration attributes the plugin's header declares, in order: the ``X(name)``
+    entries of its ``MJR_ATTRIBUTES`` table (the C code registers and parses the same list).
+
+    Raises:
+      NativeBuildError: the header has no such table.
+    """
+    lines = header.read_text().splitlines()
+    start = next((i for i, line in enumerate(lines)
+                  if line.startswith("#define MJR_ATTRIBUTES(X)")), None)
+    if start is None:
+        raise NativeBuildError(f"{header} declares no MJR_ATTRIBUTES table")
+    table = [lines[start]]
+    while table[-1].rstrip().endswith("\\"):
+        table.append(lines[start + len(table)])
+    return tuple(re.findall(r"\bX\((\w+)\)", "\n".join(table)))
+
+
+ATTRIBUTES = declared_attributes()
 
 
 def _compiler() -> str | None:

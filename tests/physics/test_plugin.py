@@ -254,3 +254,22 @@ def test_an_empty_or_relative_cache_variable_gives_an_absolute_folder(tmp_path, 
     monkeypatch.setenv("MJREGEN_CACHE", "")
     monkeypatch.setenv("XDG_CACHE_HOME", "")
     assert library_path().parent == Path.home() / ".cache" / "mjregen"
+
+
+def test_the_writer_and_the_headers_attribute_table_agree():
+    """Every attribute the MJCF writer sets is declared in voxels.h's table, and every
+    declared one is written by the beam or the tendon configuration (a new parameter is a
+    table entry and a writer entry, or this fails)."""
+    robot = Robot.from_body(SLAB)
+    written = set()
+    for physics in (Physics(), TENDONS):
+        written |= set(compile_robot(robot, physics=physics).spec.plugins[0].config)
+    assert written == set(voxel_plugin.ATTRIBUTES)
+    assert len(voxel_plugin.ATTRIBUTES) == len(set(voxel_plugin.ATTRIBUTES))
+
+
+def test_a_header_without_the_attribute_table_is_a_clear_error(tmp_path):
+    header = tmp_path / "voxels.h"
+    header.write_text("#define SOMETHING_ELSE 1\n")
+    with pytest.raises(voxel_plugin.NativeBuildError, match="MJR_ATTRIBUTES"):
+        voxel_plugin.declared_attributes(header)
