@@ -1,6 +1,7 @@
 """Convergence order of the integrators and stability of the automatic time step (issue #7).
 
-Fast versions of `benchmarks/accuracy.py`; the full sweeps are there (docs/accuracy.md).
+Fast versions of `benchmarks/accuracy.py` on its harness (`mjregen.validation.integration`);
+the full sweeps are there (docs/accuracy.md).
 """
 
 from __future__ import annotations
@@ -16,13 +17,13 @@ import pytest
 
 from mjregen.grid import Material, Robot
 from mjregen.physics import MujocoPipeline, Physics
+from mjregen.validation.integration import Run, evaluate, mujoco_twin
 
 _SPEC = importlib.util.spec_from_file_location(
     "accuracy_benchmark", Path(__file__).resolve().parents[2] / "benchmarks" / "accuracy.py")
 accuracy = importlib.util.module_from_spec(_SPEC)
 sys.modules[_SPEC.name] = accuracy  # dataclasses look their module up there
 _SPEC.loader.exec_module(accuracy)
-Run, evaluate = accuracy.Run, accuracy.evaluate
 
 
 def cantilever_error(integrator: str, dt: float, reference: np.ndarray) -> float:
@@ -61,16 +62,16 @@ def test_other_integrators_run_the_voxel_pipelines_mujoco_twin():
     same bonds, the engine floor's constants on "point" contacts, the same time-step rule."""
     physics = Physics().replace(bond_model="timoshenko", collision_radius=0.5,
                                 floor_damping=0.7, settle_time=0.01)
-    twin = accuracy.mujoco_twin(physics)
+    twin = mujoco_twin(physics)
     assert twin.scene == physics.scene and twin.materials == physics.materials
     assert twin.pipeline == MujocoPipeline(
         contact_shape="point", bond_model="timoshenko", contact_stiffness=2.0,
         contact_damping=0.7, collision_radius=0.5, timestep_rule="network")
     # the engine's 0.75 L envelope (bond hops excluded): MuJoCo's largest without neighbours
-    assert accuracy.mujoco_twin(Physics()).pipeline.collision_radius == 0.625
+    assert mujoco_twin(Physics()).pipeline.collision_radius == 0.625
     run = CANTILEVER_RUN(1e-5, "rk4")
     assert evaluate(run)["dt"] == 1e-5
-    assert accuracy.mujoco_twin(run.physics).pipeline.bond_model == "euler_bernoulli"
+    assert mujoco_twin(run.physics).pipeline.bond_model == "euler_bernoulli"
 
 
 def muscle_pair_run(dt: float, integrator: str) -> Run:
