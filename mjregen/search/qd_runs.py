@@ -50,8 +50,10 @@ from mjregen.search.run_folder import (
     RUN_FORMAT,
     RunFolderError,
     config_hash,
+    load_checkpoint,
     prepare_folder,
     read_metrics,
+    save_checkpoint,
 )
 from mjregen.search.run_lock import RunLock
 from mjregen.search.run_loop import run_steps
@@ -311,29 +313,26 @@ def read_archive(path: str | Path) -> StoredArchive:
 
 
 def _checkpoint_save(path: Path, search: MapElites, config_sha256: str) -> None:
-    """The search's state with the hash of the config.json the run started with."""
+    """The search's state (`save_checkpoint`)."""
     ribs = import_ribs()
-    state = {"iteration": search.iteration, "ribs_version": ribs.__version__,
-             "config_sha256": config_sha256}
-    with atomic_open(path) as handle:
-        np.savez(handle, format=np.array(RUN_FORMAT), state=np.array(json.dumps(state)),
-                 search=np.frombuffer(search.state_bytes(), dtype=np.uint8))
+    save_checkpoint(path, state={"iteration": search.iteration, "ribs_version": ribs.__version__},
+                    arrays={"search": np.frombuffer(search.state_bytes(), dtype=np.uint8)},
+                    config_sha256=config_sha256)
 
 
 def _checkpoint_load(path: Path) -> MapElites:
+    """The search of a checkpoint `_checkpoint_save` wrote.
+
+    Raises:
+      CheckpointError: unreadable, not a MAP-Elites checkpoint, another ribs version, or
+        inconsistent.
+      RunFolderError: the run's config.json changed since.
+    """
     ribs = import_ribs()
-    try:
-        with np.load(path, allow_pickle=False) as archive:
-            if str(archive["format"]) != RUN_FORMAT:
-                raise CheckpointError(f"{path} is not an mjregen run checkpoint")
-            state = json.loads(str(archive["state"]))
-            data = archive["search"].tobytes()
-    except (KeyError, ValueError, OSError, EOFError, zipfile.BadZipFile) as error:
-        raise CheckpointError(f"cannot read run checkpoint {path}: {error}") from None
-    config_path = path.with_name("config.json")
-    if state.get("config_sha256") != config_hash(config_path):
-        raise RunFolderError(f"{config_path} changed since the run wrote {path.name} (its hash "
-                             "differs): restore the file, or start a new run")
+    state, arrays = load_checkpoint(path)
+    if "search" not in arrays:
+        raise CheckpointError(f"cannot read run checkpoint {path}: it holds no search state")
+    data = arrays["search"].tobytes()
     if state.get("ribs_version") != ribs.__version__:
         raise CheckpointError(
             f"{path} was written with ribs {state.get('ribs_version')}, this is ribs "

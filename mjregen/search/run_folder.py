@@ -16,11 +16,13 @@ import json
 import re
 import shutil
 import sys
+import zipfile
 from pathlib import Path
 
+import numpy as np
 from tqdm import tqdm
 
-from mjregen.errors import MjregenError
+from mjregen.errors import CheckpointError, MjregenError
 from mjregen.fileio import atomic_open
 from mjregen.search.run_lock import LOCK_FILE
 from mjregen.tasks.evaluation import PopulationEvaluation
@@ -41,6 +43,44 @@ class RunFailedError(MjregenError, RuntimeError):
 def config_hash(path: Path) -> str:
     """sha256 of a run's config.json, stored in its checkpoints."""
     return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def save_checkpoint(path: Path, *, state: dict, arrays: dict[str, np.ndarray],
+                    config_sha256: str) -> None:
+    """Write a run's checkpoint atomically: `state` as JSON with the hash of the config.json
+    the run started with (an edit made during the run is refused on resume), and `arrays`."""
+    state = {**state, "config_sha256": config_sha256}
+    with atomic_open(path) as handle:
+        np.savez(handle, format=np.array(RUN_FORMAT), state=np.array(json.dumps(state)),
+                 **arrays)
+
+
+def load_checkpoint(path: Path) -> tuple[dict, dict[str, np.ndarray]]:
+    """(state, arrays) of the checkpoint `save_checkpoint` wrote (the state without its
+    config hash).
+
+    Raises:
+      CheckpointError: the file is missing, unreadable or not a run checkpoint.
+      RunFolderError: the run's config.json changed since the checkpoint was written (a
+        checkpoint from before the hash was stored is not checked).
+    """
+    try:
+        with np.load(path, allow_pickle=False) as archive:
+            if "format" not in archive.files or str(archive["format"]) != RUN_FORMAT:
+                raise CheckpointError(f"{path} is not an mjregen run checkpoint")
+            state = json.loads(str(archive["state"]))
+            arrays = {name: archive[name] for name in archive.files
+                      if name not in ("format", "state")}
+    except (KeyError, ValueError, OSError, EOFError, zipfile.BadZipFile) as error:
+        raise CheckpointError(f"cannot read run checkpoint {path}: {error}") from None
+    if not isinstance(state, dict):
+        raise CheckpointError(f"cannot read run checkpoint {path}: its state is not a record")
+    stored_hash = state.pop("config_sha256", None)
+    config_path = path.with_name("config.json")
+    if stored_hash is not None and stored_hash != config_hash(config_path):
+        raise RunFolderError(f"{config_path} changed since the run wrote {path.name} (its hash "
+                             "differs): restore the file, or start a new run")
+    return state, arrays
 
 
 def read_config(path: Path) -> dict:

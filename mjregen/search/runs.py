@@ -22,8 +22,6 @@ that holds an mjregen run. A generation in which every evaluation failed stops t
 
 from __future__ import annotations
 
-import json
-import zipfile
 from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
@@ -33,7 +31,6 @@ import numpy as np
 
 from mjregen import __version__
 from mjregen.errors import CheckpointError
-from mjregen.fileio import atomic_open
 from mjregen.grid import Robot
 from mjregen.growth.checkpoint import load_nca, save_nca
 from mjregen.growth.nca import NCA, NCAConfig
@@ -45,8 +42,10 @@ from mjregen.search.run_folder import (
     RunFolderError,
     check_restartable,
     config_hash,
+    load_checkpoint,
     prepare_folder,
     read_metrics,
+    save_checkpoint,
 )
 from mjregen.search.run_lock import RunLock
 from mjregen.search.run_loop import run_steps
@@ -86,36 +85,31 @@ GENOME_ARRAYS = ("population", "parents")  # what a GA state holds its genomes i
 
 
 def _checkpoint_save(path: Path, ga: GeneticAlgorithm, best: dict, config_sha256: str) -> None:
-    """The GA state and the best so far, with the hash of the config.json the run started
-    with (an edit made during the run is refused on resume)."""
+    """The GA state and the best so far (`save_checkpoint`)."""
     state = ga.state_dict()
     genomes = {name: state.pop(name) for name in GENOME_ARRAYS if name in state}
-    state.update(best_fitness=best["best_fitness"], best_generation=best["best_generation"],
-                 config_sha256=config_sha256)
-    with atomic_open(path) as handle:
-        np.savez(handle, format=np.array(RUN_FORMAT), best_genome=best["best_genome"],
-                 state=np.array(json.dumps(state)), **genomes)
+    state.update(best_fitness=best["best_fitness"], best_generation=best["best_generation"])
+    save_checkpoint(path, state=state, arrays={"best_genome": best["best_genome"], **genomes},
+                    config_sha256=config_sha256)
 
 
 def _checkpoint_load(path: Path) -> tuple[GeneticAlgorithm, dict]:
+    """The GA and the best so far of a checkpoint `_checkpoint_save` wrote.
+
+    Raises:
+      CheckpointError: unreadable, or not the checkpoint of a GA that fits its run.
+      RunFolderError: the run's config.json changed since.
+    """
+    state, arrays = load_checkpoint(path)
+    genomes = {name: arrays[name] for name in GENOME_ARRAYS if name in arrays}
     try:
-        with np.load(path, allow_pickle=False) as archive:
-            if str(archive["format"]) != RUN_FORMAT:
-                raise CheckpointError(f"{path} is not an mjregen run checkpoint")
-            state = json.loads(str(archive["state"]))
-            genomes = {name: archive[name] for name in GENOME_ARRAYS if name in archive}
-            best_genome = archive["best_genome"]
-            if not genomes:
-                raise KeyError("population")
-    except (KeyError, ValueError, OSError, EOFError, zipfile.BadZipFile) as error:
+        if not genomes or "best_genome" not in arrays:
+            raise KeyError("population" if not genomes else "best_genome")
+        best = {"best_fitness": state.pop("best_fitness"),
+                "best_generation": state.pop("best_generation"),
+                "best_genome": arrays["best_genome"]}
+    except KeyError as error:
         raise CheckpointError(f"cannot read run checkpoint {path}: {error}") from None
-    stored_hash = state.pop("config_sha256", None)  # absent in older checkpoints
-    config_path = path.with_name("config.json")
-    if stored_hash is not None and stored_hash != config_hash(config_path):
-        raise RunFolderError(f"{config_path} changed since the run wrote {path.name} (its hash "
-                             "differs): restore the file, or start a new run")
-    best = {"best_fitness": state.pop("best_fitness"), "best_generation": state.pop("best_generation"),
-            "best_genome": best_genome}
     try:
         return GeneticAlgorithm.from_state_dict({**state, **genomes}), best
     except ValueError as error:
