@@ -47,9 +47,11 @@ from mjregen.search.map_elites import (
     import_ribs,
 )
 from mjregen.search.run_folder import (
+    EVALUATION_COLUMNS,
     RUN_FORMAT,
     RunFolderError,
     config_hash,
+    evaluation_columns,
     load_checkpoint,
     prepare_folder,
     read_metrics,
@@ -62,8 +64,7 @@ from mjregen.tasks.descriptors import describe, descriptor_ranges
 from mjregen.tasks.evaluation import PopulationEvaluation
 
 QD_METRICS = ("iteration", "qd_score", "coverage", "elites", "best", "batch_best",
-              "batch_mean", "unstable", "failed", "distinct", "evaluations", "evals_per_s",
-              "wall_time", "elapsed")
+              "batch_mean", *EVALUATION_COLUMNS)
 ARCHIVE_FORMAT = "mjregen-archive-1"
 
 
@@ -244,10 +245,7 @@ def _metrics_row(stats: dict, result: PopulationEvaluation, *, iteration: int, w
         "coverage": f"{stats['coverage']:.6g}", "elites": stats["elites"],
         "best": f"{stats['best']:.6g}", "batch_best": f"{fitness.max():.6g}",
         "batch_mean": f"{fitness.mean():.6g}",
-        "unstable": int(np.count_nonzero(~result.stable & ~result.failed)),
-        "failed": int(np.count_nonzero(result.failed)), "distinct": result.n_distinct,
-        "evaluations": len(fitness), "evals_per_s": f"{len(fitness) / wall:.4g}",
-        "wall_time": f"{wall:.4g}", "elapsed": f"{elapsed:.6g}",
+        **evaluation_columns(result, wall=wall, elapsed=elapsed),
     }
 
 

@@ -205,6 +205,23 @@ def log_failures(path: Path, step: int, result: PopulationEvaluation, *, progres
         print(message, file=sys.stderr)
 
 
+EVALUATION_COLUMNS = ("unstable", "failed", "distinct", "evaluations", "evals_per_s",
+                      "wall_time", "elapsed")
+
+
+def evaluation_columns(result: PopulationEvaluation, *, wall: float, elapsed: float) -> dict:
+    """The metrics.csv columns every optimiser's step has (`EVALUATION_COLUMNS`): unstable, failed and distinct
+    robots, evaluations, their rate (per s of `wall`, the step's), the step's wall time and
+    `elapsed` (s, the run's so far)."""
+    evaluations = len(result.fitness)
+    return {
+        "unstable": int(np.count_nonzero(~result.stable & ~result.failed)),
+        "failed": int(np.count_nonzero(result.failed)), "distinct": result.n_distinct,
+        "evaluations": evaluations, "evals_per_s": f"{evaluations / wall:.4g}",
+        "wall_time": f"{wall:.4g}", "elapsed": f"{elapsed:.6g}",
+    }
+
+
 def read_metrics(path: Path, counter: str, done: int) -> list[dict]:
     """metrics.csv rows whose `counter` column (e.g. "generation") is below `done` (a
     killed run may have written one more)."""

@@ -38,10 +38,12 @@ from mjregen.plotting import line_axes, save_png
 from mjregen.search.backends import Backend
 from mjregen.search.ga import GAConfig, GeneticAlgorithm
 from mjregen.search.run_folder import (
+    EVALUATION_COLUMNS,
     RUN_FORMAT,
     RunFolderError,
     check_restartable,
     config_hash,
+    evaluation_columns,
     load_checkpoint,
     prepare_folder,
     read_metrics,
@@ -51,9 +53,8 @@ from mjregen.search.run_lock import RunLock
 from mjregen.search.run_loop import run_steps
 from mjregen.tasks.evaluation import PopulationEvaluation
 
-METRICS = ("generation", "best", "mean", "median", "std", "unstable", "failed", "distinct",
-           "evaluations", "evals_per_s", "wall_time", "elapsed", "best_distance_min",
-           "best_distance_std")
+METRICS = ("generation", "best", "mean", "median", "std", *EVALUATION_COLUMNS,
+           "best_distance_min", "best_distance_std")
 # the generation's best individual's shortest walk and the spread of its walks over its starts
 # (voxel lengths; empty for tasks without them)
 SPREAD = {"best_distance_min": "distance_min", "best_distance_std": "distance_std"}
@@ -179,10 +180,7 @@ def _metrics_row(result: PopulationEvaluation, *, generation: int, top: int, wal
     return {
         "generation": generation, "best": f"{fitness.max():.6g}", "mean": f"{fitness.mean():.6g}",
         "median": f"{np.median(fitness):.6g}", "std": f"{fitness.std():.6g}",
-        "unstable": int(np.count_nonzero(~result.stable & ~result.failed)),
-        "failed": int(np.count_nonzero(result.failed)), "distinct": result.n_distinct,
-        "evaluations": len(fitness), "evals_per_s": f"{len(fitness) / wall:.4g}",
-        "wall_time": f"{wall:.4g}", "elapsed": f"{elapsed:.6g}", **spread,
+        **evaluation_columns(result, wall=wall, elapsed=elapsed), **spread,
     }
 
 
