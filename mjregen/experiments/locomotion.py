@@ -16,6 +16,7 @@ from mjregen.search.ga import GAConfig
 from mjregen.search.map_elites import MapElitesConfig
 from mjregen.search.qd_runs import QDRunSummary, run_map_elites
 from mjregen.search.runs import RunSummary, run_evolution
+from mjregen.tasks import registry
 from mjregen.tasks.grow_regrow import PAPER_CUT, GrowRegrowTask
 from mjregen.tasks.locomotion import DEFAULT_STARTS, LocomotionTask
 
@@ -76,10 +77,9 @@ def task_from_config(config: dict) -> LocomotionTask | GrowRegrowTask:
     Raises:
       ValueError: another task. KeyError: an entry is missing.
     """
-    kinds = {"locomotion": LocomotionTask, "grow-regrow": GrowRegrowTask}
-    if config.get("task") not in kinds:
+    if config.get("task") not in ("locomotion", "grow-regrow"):
         raise ValueError(f"not a walking task: {config.get('task')!r}")
-    return kinds[config["task"]].from_config(config)
+    return registry.task_from_config(config)
 
 
 def map_elites_locomotion(*, out: str | Path, nca: NCAConfig, config: MapElitesConfig,

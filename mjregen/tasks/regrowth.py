@@ -180,6 +180,30 @@ class RegrowthTask:
                 "damaged_state": self.damaged.state[0].tolist(),
                 "damaged_alpha": self.damaged.alpha[0].tolist()}
 
+    @classmethod
+    def from_config(cls, config: dict) -> RegrowthTask:
+        """The task `to_config` described (its other entries are the provenance).
+
+        Raises:
+          ValueError: `config` is not a regrowth task's, or its grids do not fit its NCA.
+          KeyError: an entry is missing.
+        """
+        if config.get("task") != "regrowth":
+            raise ValueError(f"not a regrowth task: {config.get('task')!r}")
+        nca = NCAConfig.from_dict(config["nca"])
+        original = np.asarray(config["original"], dtype=np.int8)
+        state = torch.tensor(config["damaged_state"], dtype=torch.int64)[None]
+        alpha = torch.tensor(config["damaged_alpha"], dtype=torch.float32)[None]
+        for name, grid in (("original", original), ("damaged_state", state[0]),
+                           ("damaged_alpha", alpha[0])):
+            if tuple(grid.shape) != nca.grid_shape:
+                raise ValueError(f"{name} has shape {tuple(grid.shape)}, the NCA's grid is "
+                                 f"{nca.grid_shape}")
+        stored = ("task", "nca", "original", "damaged_state", "damaged_alpha")
+        return cls(nca=nca, original=original,
+                   damaged=CAState(state, alpha, _fresh_memory(nca, 1)),
+                   provenance={k: v for k, v in config.items() if k not in stored})
+
     def start(self, population: int) -> CAState:
         """The damaged state repeated for `population` individuals."""
         repeat = (population,) + (1,) * self.nca.dim
