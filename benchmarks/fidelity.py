@@ -3,10 +3,13 @@
 Runs every case of `mjregen.validation.reference` with the chosen physics and prints a table
 (measure, reference, mjregen, ratio); `--json` writes the numbers.
 
-    python benchmarks/fidelity.py [--preset default|paper|box|sphere]
-        [--scene key=value ...] [--friction x] [--cases tripod,drop_voxel] [--json F]
+    python benchmarks/fidelity.py [--physics default|paper|sphere|box] [--bonds B]
+        [--timestep-rule R] [--scene key=value ...] [--friction x]
+        [--cases tripod,drop_voxel] [--json F]
 
-`--scene` overrides fields of the scene or of the preset's pipeline (JSON values:
+`--physics`, `--bonds` and `--timestep-rule` choose the physics as every mjregen command does
+(`mjregen.cli.common.physics_from_args`); `--scene` then overrides fields of the scene or of
+the pipeline (JSON values:
 `--scene bond_damping_ratio=0.5`, `--scene beam_law='"tendons"'`;
 `--scene 'pipeline="mujoco"'` first switches to the pure-MuJoCo pipeline with its
 defaults), and `--friction 1.0` sets every material's friction.
@@ -40,7 +43,9 @@ from pathlib import Path
 import numpy as np
 
 from mjregen.grid import Robot
-from mjregen.physics import Physics, box_physics, paper_physics, sphere_physics
+from mjregen.cli.common import add_physics_choice
+from mjregen.cli.common import physics_from_args as command_physics
+from mjregen.physics import Physics
 from mjregen.physics.compile import compile_robot
 from mjregen.validation.reference import (
     CASES,
@@ -54,14 +59,14 @@ from mjregen.validation.reference import (
 ROOT = Path(__file__).resolve().parent.parent
 # the paper engine's recordings (not shipped: 7.5 MB); --reference or $MJREGEN_REFERENCE
 DEFAULT_REFERENCE = Path(os.environ.get("MJREGEN_REFERENCE", "reference"))
-PRESETS = {"default": Physics, "paper": paper_physics, "box": box_physics,
-           "sphere": sphere_physics}
 UNITS = {"distance": (1.0, "vox"), "sag_max_t": (1e3, "ms"), "stop_after": (1e3, "ms")}
 
 
 def physics_from_args(args: argparse.Namespace) -> Physics:
-    physics = PRESETS[args.preset]()
-    if args.friction is not None:  # the static coefficient; kinetic capped at it
+    """The command's physics (`mjregen.cli.common.physics_from_args`), then --friction (the
+    static coefficient; kinetic capped at it) and --scene."""
+    physics = command_physics(args)
+    if args.friction is not None:
         physics = Physics(materials={
             m: dataclasses.replace(p, friction=args.friction, kinetic_friction=None
                                    if p.kinetic_friction is None
@@ -542,7 +547,7 @@ Black: the paper engine; red: mjregen (default physics).
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--preset", choices=sorted(PRESETS), default="default")
+    add_physics_choice(parser)
     parser.add_argument("--scene", action="append", default=[], metavar="KEY=VALUE")
     parser.add_argument("--friction", type=float, default=None)
     parser.add_argument("--cases", default=",".join(CASES))
