@@ -2,7 +2,7 @@
 paper's engine.
 
     python benchmarks/transfer.py --voxelyze DIR [ROBOT ...] [--starts 10] [--assets assets]
-        [--json out.json]
+        [--best-of ROOT] [--json out.json]
 
 DIR holds the paper's engine with its runner ``vxa.py`` (``vxa.py ROBOT.npy`` prints
 ``{"distance": voxel lengths, ...}``). ROBOT: a robot file (.npy), or ``NAME=PATH`` to
@@ -17,6 +17,11 @@ and in the paper's engine (3D only: the engine runs 3D grids), by
 `mjregen.validation.transfer.measure_transfer`. A robot transfers (`TRANSFER_RULE`) when the
 fresh starts and the rotations keep >= 90 % of its distance on average and the engine walks
 it >= 80 % as far.
+
+``--best-of ROOT`` also measures each condition's best robot of the evolution runs under ROOT
+(`mjregen.experiments.paper.best_robots`), named by its path relative to ROOT; written with
+``--json ROOT/transfer.json``, scripts/results_report.py shows them beside each condition's
+best run (``--best-of records/paper --json records/paper/transfer.json``).
 
 ``--assets DIR`` also measures every evolved walker the package ships (``DIR/nca/
 manifest.json``, ``DIR/robots/walkers/walkers.json``) and writes each one's measurements,
@@ -102,10 +107,19 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--starts", type=int, default=10)
     parser.add_argument("--assets", type=Path,
                         help="also measure the shipped walkers and record them (docstring)")
+    parser.add_argument("--best-of", type=Path, metavar="ROOT",
+                        help="also measure each condition's best robot of the runs under ROOT")
     parser.add_argument("--json", type=Path)
     args = parser.parse_args(argv)
     todo = [(name or Path(path).stem, Path(path), None, None)
             for name, _, path in (item.rpartition("=") for item in args.robots)]
+    if args.best_of is not None:
+        from mjregen.experiments.paper import best_robots
+
+        found = best_robots(args.best_of)
+        if not found:
+            parser.error(f"--best-of {args.best_of}: no evolution runs there")
+        todo += [(name, path, None, None) for name, path in found.items()]
     if args.assets is not None:
         todo += shipped_walkers(args.assets)
     try:

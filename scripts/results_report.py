@@ -46,6 +46,7 @@ import numpy as np
 
 from mjregen.errors import MjregenError
 from mjregen.experiments import paper as ex
+from mjregen.validation.transfer import ENGINE, KEEP
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER_GLOB = Path(os.environ.get("MJREGEN_PAPER", "paper"))  # a folder with the paper's LaTeX
@@ -148,6 +149,36 @@ def _rewalked(run: ex.RunInfo) -> float:
                                                                starts=range(REWALK_STARTS))]))
 
 
+TRANSFER_FILE = "transfer.json"  # in the results root: `benchmarks/transfer.py --best-of ROOT`
+
+
+def _transfer_measurements(root: Path) -> dict[str, dict]:
+    """The transfer measurements kept in ``root/transfer.json`` by robot name (its path
+    relative to `root`); empty without the file.
+
+    Raises:
+      ValueError: the file is not a list of measurements.
+    """
+    path = root / TRANSFER_FILE
+    if not path.is_file():
+        return {}
+    entries = json.loads(path.read_text())
+    if not isinstance(entries, list) or not all(isinstance(e, dict) and "name" in e
+                                                for e in entries):
+        raise ValueError(f"{path} is not a list of transfer measurements "
+                         "(benchmarks/transfer.py --json)")
+    return {entry["name"]: entry for entry in entries}
+
+
+def _engine_cell(measured: dict | None) -> str:
+    """A best robot's walk in the paper's engine and whether it transfers, or why not."""
+    if measured is None:
+        return "not measured"
+    engine = measured.get("engine")
+    verdict = "transfers" if measured.get("transfers") else "does not transfer"
+    return f"{fmt_distance(engine, 4) if engine is not None else 'n/a'} ({verdict})"
+
+
 def _metric_sum(run: ex.RunInfo, column: str) -> int:
     import csv
 
@@ -184,9 +215,15 @@ class Report:
         self.facts: list[str] = []
         self.runs = ex.list_runs(args.root)
         self.stats: dict[str, object] = {}
+        self.transfer = _transfer_measurements(args.root)
 
     def add(self, *lines: str) -> None:
         self.lines.extend(lines)
+
+    def _robot_name(self, run: ex.RunInfo) -> str:
+        """The name of `run`'s best robot in ``transfer.json``: its path relative to the
+        root (`mjregen.experiments.paper.best_robots`)."""
+        return run.best_files()[1].relative_to(self.args.root).as_posix()
 
     def image(self, path: Path, alt: str) -> str:
         return f"![{alt}]({_rel(path, self.doc_dir)})"
@@ -286,8 +323,15 @@ class Report:
                  "band is little more than their range: the networks are compared below by exact "
                  "tests, with the smallest p their n allows. Fitness here is what each run "
                  "recorded, from the start its evaluations used (runs before the start shift: "
-                 "the exact start); docs/transfer.md walks their final robots from "
-                 "symmetry-broken starts and in the paper's engine.", "")
+                 "the exact start). The best run's robot is walked today from symmetry-broken "
+                 "starts, and in the paper's engine by `python benchmarks/transfer.py "
+                 f"--voxelyze DIR --best-of ROOT --json ROOT/{TRANSFER_FILE}` (3D only; the "
+                 "engine is not shipped, so the report reads the measurements kept beside the "
+                 "runs, and says 'not measured' where none is kept for that robot); the "
+                 f"transfer check: fresh starts and turned copies keep at least {KEEP:.0%} of "
+                 f"its distance and the engine walks it at least {ENGINE:.0%} as far "
+                 "(docs/transfer.md).",
+                 "")
         for dim in (2, 3):
             names = [f"{dim}d_{k}" for k in ex.NETS]
             groups = {}
@@ -308,13 +352,13 @@ class Report:
             self.add("", self.image(path, f"{dim}D fitness curves"), "",
                      "| condition | runs | generations | final best fitness of each run (mean) | best run: "
                      "fitness, distance (voxel lengths), seed, generation | its robot today: "
-                     f"distance from {REWALK_STARTS} symmetry-broken starts | unstable / failed "
-                     "evaluations |",
-                     "|---|---|---|---|---|---|---|")
+                     f"distance from {REWALK_STARTS} symmetry-broken starts | in the paper's "
+                     "engine (transfer check) | unstable / failed evaluations |",
+                     "|---|---|---|---|---|---|---|---|")
             for name in names:
                 runs = self.runs.get(name)
                 if not runs:
-                    self.add(f"| {name} | not run | | | | |")
+                    self.add(f"| {name} | not run | | | | | | |")
                     continue
                 stats = self.stats[name]
                 top = ex.best_run(runs)
@@ -325,6 +369,7 @@ class Report:
                          f"({stats.mean[-1]:.4g}) | {top.best_fitness:.4g}, "
                          f"{fmt_distance(_best_distance(top), 4)}, seed {top.seed}, "
                          f"gen {top.best_generation} | {fmt_distance(_rewalked(top), 4)} | "
+                         f"{_engine_cell(self.transfer.get(self._robot_name(top)))} | "
                          f"{unstable} / {failed} |")
             self.add("")
             if len(groups) == 2:

@@ -327,6 +327,17 @@ def best_run(runs: list[RunInfo]) -> RunInfo:
     return max(runs, key=lambda r: (r.best_fitness, -r.seed))
 
 
+def best_robots(root: str | Path = DEFAULT_ROOT) -> dict[str, Path]:
+    """Each condition's best robot under `root`: the best generation's robot of its
+    `best_run`, as {path relative to `root`: path} (the names `benchmarks/transfer.py
+    --best-of` gives its measurements and the results report looks them up by)."""
+    robots = {}
+    for runs in list_runs(root).values():
+        path = best_run(runs).best_files()[1]
+        robots[path.relative_to(Path(root)).as_posix()] = path
+    return robots
+
+
 def list_regen_runs(root: str | Path = DEFAULT_ROOT) -> list[tuple[str, str, Path]]:
     """(walker, net, folder) of every regrowth run under `root` with a recovery.json."""
     found = []

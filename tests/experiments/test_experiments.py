@@ -366,8 +366,24 @@ def test_results_report_writes_every_section(results, tmp_path, monkeypatch):
     assert ship_assets.main(["--root", str(results), "--assets", str(assets), "--best",
                              "--condition", "2d_ff"]) == 0
     out = tmp_path / "docs" / "results.md"
-    assert results_report.main(["--root", str(results), "--assets", str(assets), "--out", str(out)]) == 0
+    # the paper engine's measurement of 3d_ff's best robot, as transfer.py --best-of keeps it
+    best = ex.best_robots(results)
+    name = next(n for n in best if n.startswith("3d_ff/"))
+    assert best[name] == ex.best_run(ex.list_runs(results)["3d_ff"]).best_files()[1]
+    transfer = results / results_report.TRANSFER_FILE
+    transfer.write_text(json.dumps([{"name": name, "engine": 12.5, "transfers": True},
+                                    {"name": "3d_ff/seed_9/best/gen_0001.npy", "engine": 1.0,
+                                     "transfers": False}]))
+    try:
+        assert results_report.main(["--root", str(results), "--assets", str(assets),
+                                    "--out", str(out)]) == 0
+    finally:
+        transfer.unlink()
     text = out.read_text()
+    rows = {line.split(" | ")[0]: line for line in text.splitlines()
+            if line.startswith(("| 3d_ff | 2 |", "| 2d_ff | 2 |"))}
+    assert "| 12.5 (transfers) |" in rows["| 3d_ff"]
+    assert "| not measured |" in rows["| 2d_ff"]
     for heading in ("## How to reproduce", "## Settings", "## Fitness over generations",
                     "## Shipped NCAs", "## Regeneration", "The paper's Table 1", "## Discussion"):
         assert heading in text, heading
