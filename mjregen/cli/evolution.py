@@ -44,41 +44,46 @@ def add_evolve(subparsers: argparse._SubParsersAction) -> None:
         "preset's sigma; the folder holds archive.npz, heatmap.png, qd.png, best.npz/.npy, "
         "gallery.png and the checkpoint.",
     )
-    parser.add_argument("--optimizer", choices=("ga", "map-elites"),
-                        help="search: the paper's GA (the default) or MAP-Elites (ribs)")
-    parser.add_argument("--task", choices=("locomotion", "grow-regrow"),
-                        help="what the robots are scored on: how far they walk "
-                             "('locomotion', the default), or that and how well the same NCA "
-                             "regrows them after --cut ('grow-regrow': fitness = locomotion "
-                             "fitness - --cell-cost x wrongly regrown cells; with "
-                             "--regrown-weight the regrown robot walks too)")
-    parser.add_argument("--cut", help="grow-regrow: the damage, 'paper' (the default: grid "
-                                      "x-indices below the centre) or a half-space such as "
-                                      "'z > 4'")
-    parser.add_argument("--cell-cost", type=float,
-                        help="grow-regrow: voxel lengths of walking one wrongly regrown cell "
-                             "costs (default 0.1)")
-    parser.add_argument("--regrown-weight", type=float,
-                        help="grow-regrow: the regrown robot's share of the locomotion "
-                             "fitness, in [0, 1] (default 0: it does not walk; 0.5: the "
-                             "grown and the regrown robot count alike)")
-    parser.add_argument("--dim", type=int, choices=(2, 3), help="2D or 3D robots (default 3)")
-    parser.add_argument("--net", choices=("ff", "lstm"), help="NCA network (default ff)")
-    add_ga_arguments(parser, preset_help="GA preset (default: 2d or 3d by --dim)")
-    add_physics_arguments(parser)
-    parser.add_argument("--starts", type=starts_count,
-                        help="starts each robot walks from (every voxel moved by a seeded "
-                             f"offset of --start-shift); its fitness is their mean (default "
-                             f"{DEFAULT_STARTS})")
-    parser.add_argument("--seed", type=seed, help="seed of the GA and of the robots' starts "
+    task = parser.add_argument_group("what is evolved")
+    task.add_argument("--optimizer", choices=("ga", "map-elites"),
+                      help="search: the paper's GA (the default) or MAP-Elites (ribs)")
+    task.add_argument("--task", choices=("locomotion", "grow-regrow"),
+                      help="what the robots are scored on: how far they walk "
+                           "('locomotion', the default), or that and how well the same NCA "
+                           "regrows them after --cut ('grow-regrow': fitness = locomotion "
+                           "fitness - --cell-cost x wrongly regrown cells; with "
+                           "--regrown-weight the regrown robot walks too)")
+    task.add_argument("--cut", help="grow-regrow: the damage, 'paper' (the default: grid "
+                                    "x-indices below the centre) or a half-space such as "
+                                    "'z > 4'")
+    task.add_argument("--cell-cost", type=float,
+                      help="grow-regrow: voxel lengths of walking one wrongly regrown cell "
+                           "costs (default 0.1)")
+    task.add_argument("--regrown-weight", type=float,
+                      help="grow-regrow: the regrown robot's share of the locomotion "
+                           "fitness, in [0, 1] (default 0: it does not walk; 0.5: the "
+                           "grown and the regrown robot count alike)")
+    task.add_argument("--dim", type=int, choices=(2, 3), help="2D or 3D robots (default 3)")
+    task.add_argument("--net", choices=("ff", "lstm"), help="NCA network (default ff)")
+    search = parser.add_argument_group("the GA (its preset, and numbers that override it)")
+    add_ga_arguments(search, preset_help="GA preset (default: 2d or 3d by --dim)")
+    scoring = parser.add_argument_group("physics and scoring")
+    add_physics_arguments(scoring)
+    scoring.add_argument("--starts", type=starts_count,
+                         help="starts each robot walks from (every voxel moved by a seeded "
+                              f"offset of --start-shift); its fitness is their mean (default "
+                              f"{DEFAULT_STARTS})")
+    search.add_argument("--seed", type=seed, help="seed of the GA and of the robots' starts "
                                                   "(default 0)")
-    parser.add_argument("--backend", choices=BACKENDS, default="process",
-                        help="where simulations run (default: local processes)")
-    parser.add_argument("--workers", type=workers, help="parallel workers (default: all cores)")
-    parser.add_argument("--address", help="Ray cluster address (with --backend ray)")
-    add_run_folder_arguments(parser, resume_help="continue the run in --out with its stored settings")
+    where = parser.add_argument_group("where the robots are simulated")
+    where.add_argument("--backend", choices=BACKENDS, default="process",
+                       help="where simulations run (default: local processes)")
+    where.add_argument("--workers", type=workers, help="parallel workers (default: all cores)")
+    where.add_argument("--address", help="Ray cluster address (with --backend ray)")
+    folder = parser.add_argument_group("run folder and output")
+    add_run_folder_arguments(folder, resume_help="continue the run in --out with its stored settings")
+    folder.add_argument("--json", action="store_true", help="print a JSON summary at the end")
     add_map_elites_arguments(parser)
-    parser.add_argument("--json", action="store_true", help="print a JSON summary at the end")
     parser.set_defaults(handler=_evolve, renders=draws_gallery)
 
 
