@@ -439,10 +439,20 @@ class Report:
         self.add("")
         return drawn
 
+    def best_of_conditions(self) -> list[tuple[str, Path, Path | None]]:
+        """(name, robot file, NCA file) of each condition's best robot (its best run's best
+        generation), to draw beside the shipped ones."""
+        found = []
+        for name, runs in self.runs.items():
+            npz, npy = ex.best_run(runs).best_files()
+            if npy.is_file():
+                found.append((f"best_{name}", npy, npz))
+        return found
+
     def gallery(self, robots: list[tuple[str, Path, Path | None]]) -> None:
         self.add("## Gallery", "")
         if not robots:
-            self.add("Nothing shipped to draw.", "")
+            self.add("Nothing shipped or evolved to draw.", "")
             return
         if self.args.no_render:
             self.add("Not rendered (`--no-render`).", "")
@@ -463,8 +473,39 @@ class Report:
                 Image.fromarray(renderer.render()).save(path, format="PNG")
             cells.append(f"{self.image(path, name)}<br>{name}, {robot.n_voxels} voxels")
         self.add("Each robot in its initial pose (before the settle), in the paper's colours: "
-                 "light blue soft, dark blue hard, red muscle +, green muscle −.", "",
+                 "light blue soft, dark blue hard, red muscle +, green muscle −; `best_<condition>`"
+                 " is the condition's best robot of the runs under the results root.", "",
                  "| " + " | ".join(cells) + " |", "|" + "---|" * len(cells), "")
+
+    def best_walker_video(self) -> None:
+        """The best robot of all 3D runs walking, in slow motion: best_3d_walker.mp4."""
+        self.add("## The best 3D walker", "")
+        runs = [run for name, group in self.runs.items() if name.startswith("3d_")
+                for run in group]
+        if not runs:
+            self.add("No 3D runs.", "")
+            return
+        top = ex.best_run(runs)
+        npy = top.best_files()[1]
+        label = (f"the best robot of {top.path.parent.name} seed {top.seed}, generation "
+                 f"{top.best_generation} (fitness {top.best_fitness:.4g})")
+        if self.args.no_render or not npy.is_file():
+            self.add(f"Not rendered ({'`--no-render`' if npy.is_file() else 'no robot file'}): "
+                     f"{label}.", "")
+            return
+        from mjregen.grid import Robot
+        from mjregen.physics.compile import compile_robot
+        from mjregen.render import record_walk
+        from mjregen.video import write_video
+
+        compiled = compile_robot(Robot.load(npy))
+        walk = record_walk(compiled)
+        path = write_video(compiled, walk.qpos, self.figures / "best_3d_walker.mp4",
+                           overwrite=True, progress=False)
+        self.add(f"[Video]({_rel(path, self.doc_dir)}) of {label}: its walk from start 0 "
+                 "(seed 0) with today's default physics, settle included, 10 times slower than "
+                 "real time" + ("" if walk.stable else f"; it became unstable ({walk.reason})")
+                 + ".", "")
 
     def regeneration(self) -> None:
         rows, source = paper_table_1(self.args.paper)
@@ -764,7 +805,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         report.curves()
         robots = report.shipped()
         robots += report.walkers()
-        report.gallery(robots)
+        report.gallery(robots + report.best_of_conditions())
+        report.best_walker_video()
         report.regeneration()
         report.self_regrowth()
         report.quality_diversity()

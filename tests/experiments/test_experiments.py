@@ -398,8 +398,10 @@ def test_results_report_writes_every_section(results, tmp_path, monkeypatch):
     assert "no difference this n can show" in text and "(n=2) vs LSTM" in text
     figures = out.parent / "results"
     for name in ("fitness_2d.png", "fitness_3d.png", "growth_walker_2d_ff.png",
-                 "gallery_walker_2d_ff.png"):
+                 "gallery_walker_2d_ff.png", "gallery_best_2d_ff.png", "gallery_best_3d_ff.png"):
         assert (figures / name).read_bytes()[:4] == b"\x89PNG", name
+    assert (figures / "best_3d_walker.mp4").read_bytes()[4:8] == b"ftyp"  # an MP4 file
+    assert "[Video](results/best_3d_walker.mp4) of the best robot of 3d_ff seed" in text
     # the paper's table parses the same from the embedded copy and from a LaTeX file
     copy = results_report.parse_table_1(results_report.TABLE_1_LATEX)
     assert [r["robot"] for r in copy] == ["Biped", "Tripod", "Multiped"]
