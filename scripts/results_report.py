@@ -8,11 +8,17 @@ Reads the evolution runs under --root (runs/results/<condition>/seed_<n>), the r
   fitness_2d.png, fitness_3d.png   mean best fitness over runs with bootstrapped 95 % CIs,
                                    feed-forward vs LSTM (`mjregen.search.stats`)
   growth_<asset>.png               growth sequence of every shipped NCA
-  gallery_<asset>.png              one rendered frame of every shipped robot (headless)
+  gallery_<asset>.png              one rendered frame of every shipped robot (headless), and
+                                   gallery_best_<condition>.png of each condition's best robot
+  best_3d_walker.mp4               the best robot of all 3D runs walking, in slow motion
   results.md                       settings vs the paper, curves, tables, the regrowth table
                                    beside the paper's Table 1, the GA against MAP-Elites
                                    (docs/quality_diversity.md, included), measured facts for
                                    discussion
+
+Each condition's best robot walked in the paper's engine is read from --root's transfer.json
+when it is there (`python benchmarks/transfer.py --voxelyze DIR --best-of ROOT --json
+ROOT/transfer.json`; the engine is not shipped).
 
 It works on whatever exists: a condition without runs gets a "not run" line. The paper's
 Table 1 is parsed from the paper's LaTeX (--paper, default $MJREGEN_PAPER or ./paper; a
