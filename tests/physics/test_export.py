@@ -4,6 +4,7 @@ plugin-library call) steps it exactly as `mjregen walk` does, muscles included."
 from __future__ import annotations
 
 import json
+import re
 import subprocess
 import sys
 import textwrap
@@ -206,3 +207,27 @@ def test_exported_file_refuses_other_integrators_and_bad_configuration():
     with pytest.raises(ValueError, match="'bond_beta'"):
         mujoco.MjData(mujoco.MjModel.from_xml_string(
             xml.replace('key="bond_beta" value="', 'key="bond_beta" value="x')))
+
+
+@pytest.mark.parametrize("key, value, message", [
+    ("dim", "4", "mjregen.voxels: dim must be 2 or 3, got 4"),
+    ("voxel_size", "0", "mjregen.voxels: voxel_size must be > 0"),
+    ("waveform", "square", "waveform must be 'contract' or 'symmetric', got 'square'"),
+    ("voxels", "voxel_9_9_9 voxel_1_1_2 voxel_1_2_1 voxel_1_2_2 voxel_2_1_1 voxel_2_1_2 "
+     "voxel_2_2_1 voxel_2_2_2", "voxel 0 names body 'voxel_9_9_9', which the model does not have"),
+    ("phase", "1 0", "attribute 'phase' has 2 numbers, needs 8"),
+    ("bond_axis", "0 1 2 0 1 2 0 1 2 0 1 9", "attribute 'bond_axis': entry 11 is 9, needs an "
+     "integer in [0, 2]"),
+    ("friction_stop_time", "-1", "friction_stop_time must be >= 0"),
+    ("collision_hops", "1001", "attribute 'collision_hops': entry 0 is 1001"),
+    ("drag_rotational", "nan 0 0 0 0 0 0 0", "attribute 'drag_rotational': entry 0 is not a "
+     "finite number"),
+])
+def test_each_part_of_the_plugin_configuration_is_checked(key, value, message):
+    """A configuration the plugin cannot use is one error naming the attribute and what is
+    wrong with it, whichever part of the configuration it is in."""
+    xml = compile_robot(Robot.box((2, 2, 2))).to_xml()
+    start = xml.index(f'key="{key}" value="') + len(f'key="{key}" value="')
+    edited = xml[:start] + value + xml[xml.index('"', start):]
+    with pytest.raises(ValueError, match=re.escape(message)):
+        mujoco.MjData(mujoco.MjModel.from_xml_string(edited))

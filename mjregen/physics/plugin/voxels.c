@@ -8,6 +8,7 @@
 */
 #include <errno.h>
 #include <math.h>
+#include <stdarg.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -25,9 +26,30 @@ const char* mjr_attribute(int i) {
   return i >= 0 && i < MJR_NATTRIBUTE ? attributes[i] : NULL;
 }
 
+/* One parse of an instance's configuration: where its attributes are, and its first error
+   (every reader does nothing once `ok` is 0, so a parse reports the first problem). */
+typedef struct {
+  const mjModel* m;
+  int instance;
+  char* error;
+  int error_sz;
+  int ok;
+} mjrParse;
+
 static const char* config(const mjModel* m, int instance, const char* key) {
   const char* value = mj_getPluginConfig(m, instance, key);
   return value ? value : "";
+}
+
+/* Record the parse's first error: "mjregen.voxels: " and the formatted message. */
+static void fail(mjrParse* p, const char* format, ...) {
+  if (!p->ok) return;
+  int used = snprintf(p->error, p->error_sz, "mjregen.voxels: ");
+  va_list args;
+  va_start(args, format);
+  if (used >= 0 && used < p->error_sz) vsnprintf(p->error + used, p->error_sz - used, format, args);
+  va_end(args);
+  p->ok = 0;
 }
 
 static int count_tokens(const char* s) {
@@ -40,15 +62,14 @@ static int count_tokens(const char* s) {
   return n;
 }
 
-/* Parse exactly `n` numbers of attribute `key` into a new array; on error write a message
-   into `error` and return NULL. n = 0 gives a non-NULL empty array. */
-static double* parse_doubles(const mjModel* m, int instance, const char* key, int n,
-                             char* error, int error_sz) {
-  const char* s = config(m, instance, key);
+/* Exactly `n` numbers of attribute `key` as a new array (n = 0: a non-NULL empty one), or
+   NULL after an error. */
+static double* doubles(mjrParse* p, const char* key, int n) {
+  if (!p->ok) return NULL;
+  const char* s = config(p->m, p->instance, key);
   int found = count_tokens(s);
   if (found != n) {
-    snprintf(error, error_sz, "mjregen.voxels: attribute '%s' has %d numbers, needs %d", key,
-             found, n);
+    fail(p, "attribute '%s' has %d numbers, needs %d", key, found, n);
     return NULL;
   }
   double* out = (double*)calloc(n > 0 ? n : 1, sizeof(double));
@@ -57,8 +78,7 @@ static double* parse_doubles(const mjModel* m, int instance, const char* key, in
     errno = 0;
     out[i] = strtod(s, &end);
     if (end == s || errno == ERANGE || !isfinite(out[i])) {
-      snprintf(error, error_sz, "mjregen.voxels: attribute '%s': entry %d is not a finite "
-               "number", key, i);
+      fail(p, "attribute '%s': entry %d is not a finite number", key, i);
       free(out);
       return NULL;
     }
@@ -67,15 +87,15 @@ static double* parse_doubles(const mjModel* m, int instance, const char* key, in
   return out;
 }
 
-static int* parse_ints(const mjModel* m, int instance, const char* key, int n, int low,
-                       int high, char* error, int error_sz) {
-  double* values = parse_doubles(m, instance, key, n, error, error_sz);
+/* Exactly `n` integers in [low, high] of attribute `key`, or NULL after an error. */
+static int* ints(mjrParse* p, const char* key, int n, int low, int high) {
+  double* values = doubles(p, key, n);
   if (!values) return NULL;
   int* out = (int*)calloc(n > 0 ? n : 1, sizeof(int));
   for (int i = 0; i < n; i++) {
     if (values[i] != floor(values[i]) || values[i] < low || values[i] > high) {
-      snprintf(error, error_sz, "mjregen.voxels: attribute '%s': entry %d is %g, needs an "
-               "integer in [%d, %d]", key, i, values[i], low, high);
+      fail(p, "attribute '%s': entry %d is %g, needs an integer in [%d, %d]", key, i,
+           values[i], low, high);
       free(values);
       free(out);
       return NULL;
@@ -86,28 +106,21 @@ static int* parse_ints(const mjModel* m, int instance, const char* key, int n, i
   return out;
 }
 
-static double parse_scalar(const mjModel* m, int instance, const char* key, int* ok,
-                           char* error, int error_sz) {
-  double* value = parse_doubles(m, instance, key, 1, error, error_sz);
-  if (!value) {
-    *ok = 0;
-    return 0.0;
-  }
+/* The one number of attribute `key` (0 after an error). */
+static double scalar(mjrParse* p, const char* key) {
+  double* value = doubles(p, key, 1);
+  if (!value) return 0.0;
   double out = *value;
   free(value);
   return out;
 }
 
-/* 1 if attribute `key` is `yes`, 0 if it is `no`; anything else: *ok = 0 and a message. */
-static int either(const mjModel* m, int instance, const char* key, const char* yes,
-                  const char* no, int* ok, char* error, int error_sz) {
-  const char* value = config(m, instance, key);
+/* 1 if attribute `key` is `yes`, 0 if it is `no` (or after an error). */
+static int either(mjrParse* p, const char* key, const char* yes, const char* no) {
+  if (!p->ok) return 0;
+  const char* value = config(p->m, p->instance, key);
   if (!strcmp(value, yes)) return 1;
-  if (strcmp(value, no)) {
-    snprintf(error, error_sz, "mjregen.voxels: %s must be '%s' or '%s', got '%s'", key, yes,
-             no, value);
-    *ok = 0;
-  }
+  if (strcmp(value, no)) fail(p, "%s must be '%s' or '%s', got '%s'", key, yes, no, value);
   return 0;
 }
 
@@ -227,15 +240,15 @@ static void arrange_beams(mjrVoxels* v) {
 }
 
 /* Resolve the voxels' bodies and joints. */
-static int bind_bodies(const mjModel* m, int instance, mjrVoxels* v, char* error,
-                       int error_sz) {
-  const char* names = config(m, instance, "voxels");
+static void bind_bodies(mjrParse* p, mjrVoxels* v) {
+  const mjModel* m = p->m;
+  const char* names = config(m, p->instance, "voxels");
   v->qadr = (int*)calloc(v->nvox + 1, sizeof(int));
   v->vadr = (int*)calloc(v->nvox + 1, sizeof(int));
   v->body = (int*)calloc(v->nvox + 1, sizeof(int));
   v->pos0 = (double*)calloc(3 * v->nvox + 1, sizeof(double));
   char name[256];
-  for (int i = 0; i < v->nvox; i++) {
+  for (int i = 0; i < v->nvox && p->ok; i++) {
     while (*names == ' ' || *names == '\n' || *names == '\t' || *names == '\r') names++;
     int len = 0;
     while (names[len] && names[len] != ' ' && names[len] != '\n' && names[len] != '\t'
@@ -246,9 +259,8 @@ static int bind_bodies(const mjModel* m, int instance, mjrVoxels* v, char* error
     names += len;
     int body = mj_name2id(m, mjOBJ_BODY, name);
     if (body <= 0) {
-      snprintf(error, error_sz, "mjregen.voxels: voxel %d names body '%s', which the model "
-               "does not have", i, name);
-      return 0;
+      fail(p, "voxel %d names body '%s', which the model does not have", i, name);
+      return;
     }
     v->body[i] = body;
     memcpy(v->pos0 + 3 * i, m->body_pos + 3 * body, 3 * sizeof(double));
@@ -261,74 +273,40 @@ static int bind_bodies(const mjModel* m, int instance, mjrVoxels* v, char* error
                          : njnt == 3 && m->jnt_type[j] == mjJNT_SLIDE
                            && m->jnt_type[j + 1] == mjJNT_SLIDE && m->jnt_type[j + 2] == mjJNT_HINGE;
     if (!ok) {
-      snprintf(error, error_sz, "mjregen.voxels: body '%s' needs %s", name,
-               v->dim == 3 ? "one free joint" : "slide x, slide z, hinge y joints");
-      return 0;
+      fail(p, "body '%s' needs %s", name,
+           v->dim == 3 ? "one free joint" : "slide x, slide z, hinge y joints");
+      return;
     }
     v->qadr[i] = m->jnt_qposadr[j];
     v->vadr[i] = m->jnt_dofadr[j];
   }
-  return 1;
 }
 
-/* The instance's configuration, parsed; NULL with a message in `error` on bad input. */
-static mjrVoxels* configure(const mjModel* m, int instance, char* error, int error_sz) {
-  mjrVoxels* v = (mjrVoxels*)calloc(1, sizeof(mjrVoxels));
-  int ok = 1;
-  if (m->opt.integrator != mjINT_EULER) {
-    /* the floor's stick rule and the muscles' time are defined per Euler step */
-    snprintf(error, error_sz, "mjregen.voxels: the model's integrator must be Euler (the "
-             "floor's stick state and the muscle drive advance once per Euler step)");
-    free(v);
-    return NULL;
-  }
-  v->dim = (int)parse_scalar(m, instance, "dim", &ok, error, error_sz);
-  if (ok && v->dim != 2 && v->dim != 3) {
-    snprintf(error, error_sz, "mjregen.voxels: dim must be 2 or 3, got %d", v->dim);
-    ok = 0;
-  }
-  if (ok) v->voxel_size = parse_scalar(m, instance, "voxel_size", &ok, error, error_sz);
-  if (ok && !(v->voxel_size > 0)) {
-    snprintf(error, error_sz, "mjregen.voxels: voxel_size must be > 0");
-    ok = 0;
-  }
-  if (ok) v->omega = 2.0 * mjPI * parse_scalar(m, instance, "frequency", &ok, error, error_sz);
-  if (ok) v->start = parse_scalar(m, instance, "start", &ok, error, error_sz);
-  if (ok) v->contract = either(m, instance, "waveform", "contract", "symmetric", &ok, error,
-                               error_sz);
+/* The robot's kind: dimension, voxel size, muscle timing and drive, bond element. */
+static void configure_scene(mjrParse* p, mjrVoxels* v) {
+  v->dim = (int)scalar(p, "dim");
+  if (p->ok && v->dim != 2 && v->dim != 3) fail(p, "dim must be 2 or 3, got %d", v->dim);
+  v->voxel_size = scalar(p, "voxel_size");
+  if (p->ok && !(v->voxel_size > 0)) fail(p, "voxel_size must be > 0");
+  v->omega = 2.0 * mjPI * scalar(p, "frequency");
+  v->start = scalar(p, "start");
+  v->contract = either(p, "waveform", "contract", "symmetric");
   v->ctrl_plus = v->ctrl_minus = -1;
-  if (ok && either(m, instance, "drive", "ctrl", "waveform", &ok, error, error_sz)) {
-    v->ctrl_plus = mj_name2id(m, mjOBJ_ACTUATOR, "muscle_plus");
-    v->ctrl_minus = mj_name2id(m, mjOBJ_ACTUATOR, "muscle_minus");
-    if (v->ctrl_plus < 0 || v->ctrl_minus < 0) {
-      snprintf(error, error_sz, "mjregen.voxels: drive 'ctrl' needs the actuators "
-               "'muscle_plus' and 'muscle_minus'");
-      ok = 0;
-    }
+  if (either(p, "drive", "ctrl", "waveform")) {
+    v->ctrl_plus = mj_name2id(p->m, mjOBJ_ACTUATOR, "muscle_plus");
+    v->ctrl_minus = mj_name2id(p->m, mjOBJ_ACTUATOR, "muscle_minus");
+    if (v->ctrl_plus < 0 || v->ctrl_minus < 0)
+      fail(p, "drive 'ctrl' needs the actuators 'muscle_plus' and 'muscle_minus'");
   }
-  if (ok) v->beams = either(m, instance, "element", "beam", "tendons", &ok, error, error_sz);
-  if (!ok) {
-    release(v);
-    return NULL;
-  }
-  v->nvox = count_tokens(config(m, instance, "voxels"));
-  v->nbond = count_tokens(config(m, instance, "bond_axis"));
-  v->ntendon = v->beams ? 0 : count_tokens(config(m, instance, "tendon_bond"));
-  int n = v->nvox, nb = v->nbond, nt = v->ntendon;
-  if (n == 0) {
-    snprintf(error, error_sz, "mjregen.voxels: the robot has no voxels ('voxels' is empty)");
-    release(v);
-    return NULL;
-  }
-#define DOUBLES(field, key, count) \
-  if (ok && !(v->field = parse_doubles(m, instance, key, count, error, error_sz))) ok = 0;
-#define INTS(field, key, count, low, high) \
-  if (ok && !(v->field = parse_ints(m, instance, key, count, low, high, error, error_sz))) ok = 0;
-  ok = bind_bodies(m, instance, v, error, error_sz);
-  double *phase = NULL, *strain = NULL;
-  if (ok && !(phase = parse_doubles(m, instance, "phase", n, error, error_sz))) ok = 0;
-  if (ok && !(strain = parse_doubles(m, instance, "strain", n, error, error_sz))) ok = 0;
-  if (ok) {
+  v->beams = either(p, "element", "beam", "tendons");
+}
+
+/* Each voxel's half muscle amplitude (m) of the two phases, from its phase and strain. */
+static void configure_muscles(mjrParse* p, mjrVoxels* v) {
+  int n = v->nvox;
+  double* phase = doubles(p, "phase", n);
+  double* strain = doubles(p, "strain", n);
+  if (p->ok) {
     v->half_p = (double*)calloc(n, sizeof(double));
     v->half_m = (double*)calloc(n, sizeof(double));
     for (int i = 0; i < n; i++) {
@@ -340,74 +318,76 @@ static mjrVoxels* configure(const mjModel* m, int instance, char* error, int err
   }
   free(phase);
   free(strain);
-  INTS(bonds, "bonds", 2 * nb, 0, n - 1)
-  INTS(axis, "bond_axis", nb, 0, 2)
-  DOUBLES(muscle, "bond_muscle", 2 * nb)
-  if (ok) {
-    /* driven bonds come first: count them, check the rest are passive */
+}
+
+/* The bonds: their voxels, axes and muscle weights (driven bonds first), and their
+   beam rows or tendons. */
+static void configure_bonds(mjrParse* p, mjrVoxels* v) {
+  int n = v->nvox, nb = v->nbond, nt = v->ntendon;
+  v->bonds = ints(p, "bonds", 2 * nb, 0, n - 1);
+  v->axis = ints(p, "bond_axis", nb, 0, 2);
+  v->muscle = doubles(p, "bond_muscle", 2 * nb);
+  if (p->ok) {
     while (v->ndriven < nb && (v->muscle[2 * v->ndriven] != 0 || v->muscle[2 * v->ndriven + 1] != 0))
       v->ndriven++;
-    for (int b = v->ndriven; b < nb && ok; b++) {
-      if (v->muscle[2 * b] != 0 || v->muscle[2 * b + 1] != 0) {
-        snprintf(error, error_sz, "mjregen.voxels: bond %d is driven but follows passive "
-                 "bonds; driven bonds come first", b);
-        ok = 0;
-      }
+    for (int b = v->ndriven; b < nb && p->ok; b++) {
+      if (v->muscle[2 * b] != 0 || v->muscle[2 * b + 1] != 0)
+        fail(p, "bond %d is driven but follows passive bonds; driven bonds come first", b);
     }
     for (int b = 0; b < 2 * nb; b++) v->muscle[b] *= v->voxel_size;
     if (v->ndriven) v->waves = 1;
   }
   if (v->beams) {
-    DOUBLES(stiffness, "bond_stiffness", 4 * nb)
-    DOUBLES(law, "bond_axial_law", 3 * nb)
-    DOUBLES(beta, "bond_beta", 3 * nb)
-  } else {
-    INTS(tendon_bond, "tendon_bond", nt, 0, nb - 1)
-    DOUBLES(sites, "tendon_sites", 6 * nt)
-    DOUBLES(tk, "tendon_stiffness", nt)
-    DOUBLES(tc, "tendon_damping", nt)
-    DOUBLES(trest, "tendon_rest", nt)
-    DOUBLES(tlat2, "tendon_lateral2", nt)
-    for (int t = 1; t < nt && ok; t++) {
-      if (v->tendon_bond[t] < v->tendon_bond[t - 1]) {
-        snprintf(error, error_sz, "mjregen.voxels: tendon %d: a bond's tendons must be "
-                 "consecutive, in bond order", t);
-        ok = 0;
-      }
-    }
+    v->stiffness = doubles(p, "bond_stiffness", 4 * nb);
+    v->law = doubles(p, "bond_axial_law", 3 * nb);
+    v->beta = doubles(p, "bond_beta", 3 * nb);
+    return;
   }
-  if (ok) v->floor = (int)parse_scalar(m, instance, "floor", &ok, error, error_sz);
-  DOUBLES(fk, "floor_stiffness", n)
-  DOUBLES(fc, "floor_damping", n)
-  DOUBLES(mu_s, "static_friction", n)
-  DOUBLES(mu_k, "kinetic_friction", n)
-  if (ok) v->friction_momentum = either(m, instance, "friction_stop", "momentum", "energy",
-                                        &ok, error, error_sz);
-  if (ok) v->stop_time = parse_scalar(m, instance, "friction_stop_time", &ok, error, error_sz);
-  if (ok && !(v->stop_time >= 0.0)) {
-    snprintf(error, error_sz, "mjregen.voxels: friction_stop_time must be >= 0");
-    ok = 0;
+  v->tendon_bond = ints(p, "tendon_bond", nt, 0, nb - 1);
+  v->sites = doubles(p, "tendon_sites", 6 * nt);
+  v->tk = doubles(p, "tendon_stiffness", nt);
+  v->tc = doubles(p, "tendon_damping", nt);
+  v->trest = doubles(p, "tendon_rest", nt);
+  v->tlat2 = doubles(p, "tendon_lateral2", nt);
+  for (int t = 1; t < nt && p->ok; t++) {
+    if (v->tendon_bond[t] < v->tendon_bond[t - 1])
+      fail(p, "tendon %d: a bond's tendons must be consecutive, in bond order", t);
   }
-  if (ok) v->coll_radius = parse_scalar(m, instance, "collision_radius", &ok, error, error_sz);
-  if (ok) v->coll_skin = parse_scalar(m, instance, "collision_skin", &ok, error, error_sz);
-  DOUBLES(ck, "collision_stiffness", n)
-  DOUBLES(cc, "collision_damping", n)
-  if (ok) {
-    int* hops = parse_ints(m, instance, "collision_hops", 1, 0, 1000, error, error_sz);
-    if (hops) v->coll_hops = *hops; else ok = 0;
-    free(hops);
-  }
-  INTS(grid, "grid", 3 * n, -1000000, 1000000)
-  INTS(collides, "collides", n, 0, 1)
-  DOUBLES(drag_lin, "drag_linear", n)
-  DOUBLES(drag_rot, "drag_rotational", n)
-#undef DOUBLES
-#undef INTS
-  if (!ok) {
-    release(v);
-    return NULL;
-  }
-  int colliders = 0;
+}
+
+/* The floor: its springs, dampers, friction and stick rule. */
+static void configure_floor(mjrParse* p, mjrVoxels* v) {
+  int n = v->nvox;
+  v->floor = (int)scalar(p, "floor");
+  v->fk = doubles(p, "floor_stiffness", n);
+  v->fc = doubles(p, "floor_damping", n);
+  v->mu_s = doubles(p, "static_friction", n);
+  v->mu_k = doubles(p, "kinetic_friction", n);
+  v->friction_momentum = either(p, "friction_stop", "momentum", "energy");
+  v->stop_time = scalar(p, "friction_stop_time");
+  if (p->ok && !(v->stop_time >= 0.0)) fail(p, "friction_stop_time must be >= 0");
+}
+
+/* Self-collision (spheres, springs, the pairs that never collide) and drag. */
+static void configure_collision_and_drag(mjrParse* p, mjrVoxels* v) {
+  int n = v->nvox;
+  v->coll_radius = scalar(p, "collision_radius");
+  v->coll_skin = scalar(p, "collision_skin");
+  v->ck = doubles(p, "collision_stiffness", n);
+  v->cc = doubles(p, "collision_damping", n);
+  int* hops = ints(p, "collision_hops", 1, 0, 1000);
+  if (hops) v->coll_hops = *hops;
+  free(hops);
+  v->grid = ints(p, "grid", 3 * n, -1000000, 1000000);
+  v->collides = ints(p, "collides", n, 0, 1);
+  v->drag_lin = doubles(p, "drag_linear", n);
+  v->drag_rot = doubles(p, "drag_rotational", n);
+}
+
+/* What the step derives once from the parsed configuration: the beams' arrays, whether
+   drag and the collision stage run, the collision reach, and the work arrays. */
+static void derive(mjrVoxels* v) {
+  int n = v->nvox, colliders = 0;
   double largest = 0.0;
   for (int i = 0; i < n; i++) {
     colliders += v->collides[i];
@@ -427,6 +407,36 @@ static mjrVoxels* configure(const mjModel* m, int instance, char* error, int err
   v->stick_next = (double*)calloc(n, sizeof(double));
   v->coll_ref = (double*)calloc(3 * n, sizeof(double));
   v->coll_pairs = (int*)calloc(v->collide ? (size_t)colliders * (colliders - 1) : 2, sizeof(int));
+}
+
+/* The instance's configuration, parsed; NULL with a message in `error` on bad input. */
+static mjrVoxels* configure(const mjModel* m, int instance, char* error, int error_sz) {
+  mjrParse parse = {m, instance, error, error_sz, 1};
+  mjrParse* p = &parse;
+  if (m->opt.integrator != mjINT_EULER) {
+    /* the floor's stick rule and the muscles' time are defined per Euler step */
+    fail(p, "the model's integrator must be Euler (the floor's stick state and the muscle "
+         "drive advance once per Euler step)");
+    return NULL;
+  }
+  mjrVoxels* v = (mjrVoxels*)calloc(1, sizeof(mjrVoxels));
+  configure_scene(p, v);
+  if (p->ok) {
+    v->nvox = count_tokens(config(m, instance, "voxels"));
+    v->nbond = count_tokens(config(m, instance, "bond_axis"));
+    v->ntendon = v->beams ? 0 : count_tokens(config(m, instance, "tendon_bond"));
+    if (v->nvox == 0) fail(p, "the robot has no voxels ('voxels' is empty)");
+  }
+  if (p->ok) bind_bodies(p, v);
+  configure_muscles(p, v);
+  configure_bonds(p, v);
+  configure_floor(p, v);
+  configure_collision_and_drag(p, v);
+  if (!p->ok) {
+    release(v);
+    return NULL;
+  }
+  derive(v);
   return v;
 }
 
