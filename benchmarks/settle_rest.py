@@ -130,8 +130,8 @@ def markdown_section(report: dict) -> list[str]:
         "It is not taken: it moves results (by the residual motion, which a chaotic walk can "
         "amplify like a start shift), and it would make `simulate` run a protocol the "
         "exported MJCF does not hold (plain MuJoCo stepping the model settles for the full "
-        "time; the model would need the rest test too). Taking it is a decision about the physics, best made before the 2D runs at "
-        "the paper's scale start.",
+        "time; the model would need the rest test too). Taking it is a decision about the "
+        "physics, best made before the 2D runs at the paper's scale start.",
     ]
     return lines
 

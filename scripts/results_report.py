@@ -479,8 +479,9 @@ class Report:
                 Image.fromarray(renderer.render()).save(path, format="PNG")
             cells.append(f"{self.image(path, name)}<br>{name}, {robot.n_voxels} voxels")
         self.add("Each robot in its initial pose (before the settle), in the paper's colours: "
-                 "light blue soft, dark blue hard, red muscle +, green muscle −; `best_<condition>`"
-                 " is the condition's best robot of the runs under the results root.", "",
+                 "light blue soft, dark blue hard, red muscle +, green muscle −; "
+                 "`best_<condition>` is the condition's best robot of the runs under the "
+                 "results root.", "",
                  "| " + " | ".join(cells) + " |", "|" + "---|" * len(cells), "")
 
     def best_walker_video(self) -> None:

@@ -81,7 +81,8 @@ def add_evolve(subparsers: argparse._SubParsersAction) -> None:
     where.add_argument("--workers", type=workers, help="parallel workers (default: all cores)")
     where.add_argument("--address", help="Ray cluster address (with --backend ray)")
     folder = parser.add_argument_group("run folder and output")
-    add_run_folder_arguments(folder, resume_help="continue the run in --out with its stored settings")
+    add_run_folder_arguments(folder,
+                             resume_help="continue the run in --out with its stored settings")
     folder.add_argument("--json", action="store_true", help="print a JSON summary at the end")
     add_map_elites_arguments(parser)
     parser.set_defaults(handler=_evolve, renders=draws_gallery)

@@ -98,7 +98,8 @@ class PopulationNetworks:
         sizes = [int(np.prod(shape)) for _, shape in config.parameter_layout]
         params = {
             name: chunk.reshape(len(genomes), *shape)
-            for (name, shape), chunk in zip(config.parameter_layout, torch.split(flat, sizes, dim=1))
+            for (name, shape), chunk in zip(config.parameter_layout,
+                                            torch.split(flat, sizes, dim=1))
         }
         self.kind = config.kind
         # Per layer: weight as (P, in, out), contiguous, and bias as (P, 1, out).

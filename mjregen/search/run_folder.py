@@ -210,9 +210,9 @@ EVALUATION_COLUMNS = ("unstable", "failed", "distinct", "evaluations", "evals_pe
 
 
 def evaluation_columns(result: PopulationEvaluation, *, wall: float, elapsed: float) -> dict:
-    """The metrics.csv columns every optimiser's step has (`EVALUATION_COLUMNS`): unstable, failed and distinct
-    robots, evaluations, their rate (per s of `wall`, the step's), the step's wall time and
-    `elapsed` (s, the run's so far)."""
+    """The metrics.csv columns every optimiser's step has (`EVALUATION_COLUMNS`): unstable,
+    failed and distinct robots, evaluations, their rate (per s of `wall`, the step's), the
+    step's wall time and `elapsed` (s, the run's so far)."""
     evaluations = len(result.fitness)
     return {
         "unstable": int(np.count_nonzero(~result.stable & ~result.failed)),
