@@ -4,8 +4,8 @@ One code path for 2D and 3D. Voxels are in `Robot.voxels()` order (the body orde
 model); the robot starts with its lowest voxel's bottom face at z = `elevation` and its
 centre of mass at x = y = 0. Face neighbours are bonded; bonds touching a muscle come first.
 
-Bonds: as tendon bundles (`mjregen.physics.tendons`) and as beam elements (`BeamTable`:
-one per bond; with beam_law "tendons" the bundle's linear stiffness, with "engine" the
+Bonds (`robot_bonds` -> `RobotBonds`): as tendon bundles (`mjregen.physics.tendons`) and as
+beam elements (`BeamTable`: one per bond; with beam_law "tendons" the bundle's linear stiffness, with "engine" the
 paper engine's beam: linear axial spring, torsion G·J/L).
 
 The tendons' damping is stiffness-proportional: c = 2ζ sqrt(m k), m the mean voxel mass; the
