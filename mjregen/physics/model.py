@@ -5,15 +5,14 @@ model); the robot starts with its lowest voxel's bottom face at z = `elevation` 
 centre of mass at x = y = 0. Face neighbours are bonded; bonds touching a muscle come first.
 
 Bonds (`robot_bonds` -> `RobotBonds`): as tendon bundles (`mjregen.physics.tendons`) and as
-beam elements (`BeamTable`: one per bond; with beam_law "tendons" the bundle's linear stiffness, with "engine" the
-paper engine's beam: linear axial spring, torsion G·J/L).
+beam elements (`BeamTable`: one per bond; with beam_law "tendons" the bundle's linear
+stiffness, with "engine" the paper engine's beam: linear axial spring, torsion G·J/L).
 
 The tendons' damping is stiffness-proportional: c = 2ζ sqrt(m k), m the mean voxel mass; the
 beams' follows `VoxelPipeline.beam_damping`. Muscles: a bond's axial rest length is
 L·(s₁+s₂)/2 with sᵢ the voxels' linear scales; each tendon's is sqrt((L s̄)² + d²), d its
-fixed lateral extent. Tendon
-values are rounded as MJCF writes them (`round_like_mjcf`), so the pure-MuJoCo model's file
-reproduces its tendons bit for bit.
+fixed lateral extent. Tendon values are rounded as MJCF writes them (`round_like_mjcf`), so
+the pure-MuJoCo model's file reproduces its tendons bit for bit.
 """
 
 from __future__ import annotations
