@@ -13,8 +13,11 @@ name it. Each robot is walked in mjregen
   - with its grid rotated by 90, 180 and 270 degrees about z (start 0 each; 2D: mirrored),
   - from the exact start (start shift 0: every voxel on its grid position, what every
     evolution scored before the start shift),
-and in the paper's engine (3D only: the engine runs 3D grids), by
-`mjregen.validation.transfer.measure_transfer`. A robot transfers (`TRANSFER_RULE`) when the
+and in the paper's engine for the same settle and walk (3D grids: a 2D run's robots are
+sheets, 3D grids, walked for the 2D times; a 2D grid in the x-z plane is not run there), by
+`mjregen.validation.transfer.measure_transfer`. ``--settle`` and ``--duration`` set the times of
+the ROBOTs given (a sheet of a 2D run: ``--settle 1 --duration 0.25``); ``--best-of`` and
+``--assets`` take each robot's own. A robot transfers (`TRANSFER_RULE`) when the
 fresh starts and the rotations keep >= 90 % of its distance on average and the engine walks
 it >= 80 % as far.
 
@@ -41,6 +44,8 @@ import numpy as np
 
 from mjregen.errors import MjregenError
 from mjregen.grid import Robot
+from mjregen.physics import Physics
+from mjregen.tasks.locomotion import body_physics
 from mjregen.validation.engine import PaperEngine
 from mjregen.validation.transfer import Transfer, measure_transfer, transfer_record
 
@@ -69,22 +74,25 @@ def markdown(rows: list[Transfer], starts: int) -> str:
     return "\n".join(lines)
 
 
-def shipped_walkers(assets: Path) -> list[tuple[str, Path, Path, list]]:
-    """(name, robot file, manifest file, path of the entry in the manifest) of every evolved
-    walker under `assets` (placeholders left out)."""
+def shipped_walkers(assets: Path) -> list[tuple[str, Path, Path, list, Physics]]:
+    """(name, robot file, manifest file, path of the entry in the manifest, the physics it
+    walks in: the default, for a sheet's times) of every evolved walker under `assets`
+    (placeholders left out)."""
     found = []
     manifest = assets / "nca" / "manifest.json"
     for key, entry in json.loads(manifest.read_text()).items():
         if not entry.get("placeholder") and "robot_file" in entry:
-            found.append((Path(key).stem, manifest.parent / entry["robot_file"], manifest, [key]))
+            body = entry.get("evaluation", {}).get("body", "grid")
+            found.append((Path(key).stem, manifest.parent / entry["robot_file"], manifest, [key],
+                          body_physics(Physics(), body)))
     walkers = assets / "robots" / "walkers" / "walkers.json"
     for i, entry in enumerate(json.loads(walkers.read_text())["walkers"]):
         found.append((entry["name"], walkers.parent / entry["robot_file"], walkers,
-                      ["walkers", i]))
+                      ["walkers", i], Physics()))
     return found
 
 
-def record(manifest: Path, where: list, row: Transfer, starts: int) -> None:
+def record(manifest: Path, where: list, row: Transfer, starts: int, physics: Physics) -> None:
     """Write `row` into the manifest entry at `where` as its "transfer" block."""
     from mjregen.fileio import atomic_open
 
@@ -92,7 +100,7 @@ def record(manifest: Path, where: list, row: Transfer, starts: int) -> None:
     entry = content
     for step in where:
         entry = entry[step]
-    entry["transfer"] = {**transfer_record(row, starts),
+    entry["transfer"] = {**transfer_record(row, starts, physics),
                          "command": "python benchmarks/transfer.py --voxelyze DIR --assets assets"}
     with atomic_open(manifest, "w", overwrite=True) as handle:
         json.dump(content, handle, indent=2)
@@ -105,13 +113,20 @@ def main(argv: list[str] | None = None) -> int:
                         help="folder of the paper's engine and its vxa.py")
     parser.add_argument("robots", nargs="*", help="robot files (.npy) or NAME=PATH")
     parser.add_argument("--starts", type=int, default=10)
+    parser.add_argument("--settle", type=float,
+                        help="s of settle of the ROBOTS given (default: the paper's for their "
+                             "dimension; a 2D run's sheet: 1)")
+    parser.add_argument("--duration", type=float,
+                        help="s of walking measured of the ROBOTS given (default: the "
+                             "paper's; a 2D run's sheet: 0.25)")
     parser.add_argument("--assets", type=Path,
                         help="also measure the shipped walkers and record them (docstring)")
     parser.add_argument("--best-of", type=Path, metavar="ROOT",
                         help="also measure each condition's best robot of the runs under ROOT")
     parser.add_argument("--json", type=Path)
     args = parser.parse_args(argv)
-    todo = [(name or Path(path).stem, Path(path), None, None)
+    given = Physics().replace(settle_time=args.settle, measured_time=args.duration)
+    todo = [(name or Path(path).stem, Path(path), None, None, given)
             for name, _, path in (item.rpartition("=") for item in args.robots)]
     if args.best_of is not None:
         from mjregen.experiments.paper import best_robots
@@ -119,7 +134,7 @@ def main(argv: list[str] | None = None) -> int:
         found = best_robots(args.best_of)
         if not found:
             parser.error(f"--best-of {args.best_of}: no evolution runs there")
-        todo += [(name, path, None, None) for name, path in found.items()]
+        todo += [(name, path, None, None, physics) for name, (path, physics) in found.items()]
     if args.assets is not None:
         todo += shipped_walkers(args.assets)
     try:
@@ -127,11 +142,11 @@ def main(argv: list[str] | None = None) -> int:
     except MjregenError as error:
         parser.error(str(error))
     rows = []
-    for name, path, manifest, where in todo:
+    for name, path, manifest, where, physics in todo:
         rows.append(measure_transfer(Robot.load(path), name=name, starts=args.starts,
-                                     engine=engine))
+                                     engine=engine, physics=physics))
         if manifest is not None:
-            record(manifest, where, rows[-1], args.starts)
+            record(manifest, where, rows[-1], args.starts, physics)
         print(markdown(rows[-1:], args.starts).splitlines()[-1], flush=True)
     print(markdown(rows, args.starts))
     if args.json is not None:

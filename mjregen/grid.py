@@ -170,6 +170,29 @@ def clean_grids(grids: np.ndarray, dim: int) -> np.ndarray:
     return np.where(keep, grids, 0).astype(grids.dtype)
 
 
+def lay_flat(patterns: np.ndarray) -> np.ndarray:
+    """2D patterns laid flat on the floor: each a one-voxel-thick sheet, the pattern's axes
+    becoming x and y (the paper's 2D robots: its code writes the grown 7 x 7 pattern into
+    Voxelyze as one layer, Z_Voxels 1, and walks it in 3D).
+
+    Args:
+      patterns: int array ``(..., X, Y)`` of material codes, each with its empty border.
+    Returns:
+      A new int8 array ``(..., X, Y, 3)``: layer z = 1 holds the pattern, z = 0 and z = 2
+      are the empty border.
+
+    Raises:
+      InvalidGridError: `patterns` has fewer than two axes.
+    """
+    array = np.asarray(patterns)
+    if array.ndim < 2:
+        raise InvalidGridError(f"a pattern to lay flat needs 2 axes [x, y], got shape "
+                               f"{array.shape}")
+    sheets = np.zeros(array.shape + (3,), dtype=np.int8)
+    sheets[..., 1] = array
+    return sheets
+
+
 class Robot:
     """A validated, immutable robot grid (see the module docstring for the convention).
 

@@ -142,8 +142,9 @@ REWALK_STARTS = 10  # symmetry-broken starts a run's best robot is walked from t
 
 
 def _rewalked(run: ex.RunInfo) -> float:
-    """Voxel lengths: the run's best robot walked today (default physics) from starts
-    0 .. REWALK_STARTS - 1, the mean (`mjregen walk ROBOT --starts 10`); NaN without it or
+    """Voxel lengths: the run's best robot walked today (default physics, for its run's
+    times: `RunInfo.robot_physics`) from starts 0 .. REWALK_STARTS - 1, the mean (`mjregen
+    walk ROBOT --starts 10`, with a sheet's --settle 1 --duration 0.25); NaN without it or
     when a start is unstable."""
     from mjregen.grid import Robot
     from mjregen.physics.simulation import simulate_starts
@@ -151,8 +152,8 @@ def _rewalked(run: ex.RunInfo) -> float:
     npy = run.best_files()[1]
     if not npy.is_file():
         return math.nan
-    return float(np.mean([r.distance for r in simulate_starts(Robot.load(npy),
-                                                               starts=range(REWALK_STARTS))]))
+    return float(np.mean([r.distance for r in simulate_starts(
+        Robot.load(npy), physics=run.robot_physics, starts=range(REWALK_STARTS))]))
 
 
 TRANSFER_FILE = "transfer.json"  # in the results root: `benchmarks/transfer.py --best-of ROOT`
@@ -289,7 +290,9 @@ class Report:
             settle_s = paper_settle if settle is None else settle
             walk_s = paper_walk if task.get("duration") is None else task["duration"]
             same = (settle_s, walk_s) == (paper_settle, paper_walk)
-            timing = (f"settle {fmt(settle_s)} s + walk {fmt(walk_s)} s"
+            body = ("one-layer sheets on the floor (the paper's 2D robots); "
+                    if task.get("body") == "sheet" else "")
+            timing = (f"{body}settle {fmt(settle_s)} s + walk {fmt(walk_s)} s"
                       + (" (the paper's)" if same else ""))
             stored = Physics.from_dict(physics) if isinstance(physics, dict) and physics else None
             hours = f"{sum(r.elapsed for r in runs) / 3600:.2g}"

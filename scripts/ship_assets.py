@@ -103,8 +103,8 @@ def material_counts(robot: Robot) -> dict[str, int]:
 
 
 def measure(npz: Path, run_config: dict, expected_robot: Path | None = None) -> dict:
-    """Grow the NCA in `npz` and walk its robot as the run scored it: its physics, measured
-    time, starts and their seed.
+    """Grow the NCA in `npz` and walk its robot as the run scored it: its body (a 2D run's
+    sheet is the pattern laid flat), physics, measured time, starts and their seed.
 
     Returns:
       nca config, robot (`Robot`), fitness, distance (voxel lengths, None when unstable),
@@ -113,31 +113,37 @@ def measure(npz: Path, run_config: dict, expected_robot: Path | None = None) -> 
       MjregenError: the run's config has no physics description, or the grown robot differs
         from `expected_robot` (the run's own .npy).
     """
+    from mjregen.grid import lay_flat
     from mjregen.growth.checkpoint import load_nca
     from mjregen.physics import Physics
     from mjregen.tasks.evaluation import RobotJob, evaluate_robot
+    from mjregen.tasks.locomotion import body_physics
 
     task = run_config.get("task", {})
     if not isinstance(task.get("physics"), dict):
         raise MjregenError(f"the run of {npz} stores no physics description in config.json")
-    physics = Physics.from_dict(task["physics"])
+    stored = Physics.from_dict(task["physics"])
+    body = task.get("body", "grid")
+    physics = body_physics(stored, body)
     duration = task.get("duration")
     nca, _ = load_nca(npz)
     robot = nca.grow().robot()
+    if body == "sheet":
+        robot = Robot(lay_flat(robot.grid))
     if expected_robot is not None and Robot.load(expected_robot) != robot:
         raise MjregenError(f"{npz} grows another robot than {expected_robot} with this code")
     starts, start_seed = task.get("starts", 1), task.get("start_seed", 0)
     result = evaluate_robot(RobotJob(np.asarray(robot.grid), physics, duration, starts,
-                                     start_seed))
+                                     start_seed, rule=nca.config.dim))
     settle, measured = physics.scene.timing(robot.dim)
     return {
         "nca": nca.config.to_dict(), "robot": robot, "fitness": float(result.fitness),
         "distance": float(result.distance) if result.stable else None, "stable": result.stable,
         "reason": result.reason, "voxels": robot.n_voxels, "materials": material_counts(robot),
-        "evaluation": {"physics": task["physics"], "settle_s": settle,
+        "evaluation": {"physics": task["physics"], "body": body, "settle_s": settle,
                        "duration_s": measured if duration is None else duration,
                        "duration_arg": duration, "starts": starts, "start_seed": start_seed,
-                       "physics_is_current_default": physics == Physics()},
+                       "physics_is_current_default": stored == Physics()},
     }
 
 
@@ -175,7 +181,8 @@ def transferring_run(runs: list[ex.RunInfo], engine: PaperEngine, starts: int
     for run in runs:
         _, npy = run.best_files()
         rows[run.seed] = measure_transfer(Robot.load(npy), name=f"seed {run.seed}",
-                                          starts=starts, engine=engine)
+                                          starts=starts, engine=engine,
+                                          physics=run.robot_physics)
         print(f"    {run.path}: {_transfer_line(rows[run.seed])}", flush=True)
     best = best_transferring(list(rows.values()))
     if best is None:
@@ -194,10 +201,12 @@ def _transfer_line(row: Transfer) -> str:
 
 def _choose(runs: dict[str, list[ex.RunInfo]], names: list[str], engine: PaperEngine | None,
             starts: int) -> dict[str, tuple[ex.RunInfo, Transfer | None]]:
-    """Each condition's run to ship and, for a 3D one with `engine`, its transfer walks."""
+    """Each condition's run to ship and, for one of 3D robots (3D, or 2D sheets) with
+    `engine`, its transfer walks."""
     chosen = {}
     for name in names:
-        if engine is not None and ex.CONDITIONS[name].dim == 3:
+        condition = ex.CONDITIONS[name]
+        if engine is not None and (condition.dim == 3 or condition.body == "sheet"):
             print(f"{name}: the transfer check of each run's best robot ...", flush=True)
             chosen[name] = transferring_run(runs[name], engine, starts)
         else:
@@ -241,7 +250,7 @@ def ship_best(root: Path, assets: Path, *, conditions: list[str] | None, overwri
         measured["robot"].save(target.with_suffix(".npy"), overwrite=overwrite)
         entry = _entry(name, run, npz, target, measured, stamp, len(runs[name]))
         if transfer is not None:
-            entry["transfer"] = {**transfer_record(transfer, starts),
+            entry["transfer"] = {**transfer_record(transfer, starts, run.robot_physics),
                                  "command": "python scripts/ship_assets.py --best --voxelyze DIR"}
         manifest[target.name] = entry
         entries.append(entry)

@@ -193,6 +193,7 @@ def task_settings(args: argparse.Namespace, task) -> dict[str, tuple]:
     physics = task.physics
     given = {"dim": (args.dim, task.nca.dim), "net": (args.net, task.nca.kind),
              "duration": (args.duration, task.duration), "starts": (args.starts, task.starts),
+             "body": (getattr(args, "body", None), getattr(task, "body", "grid")),
              "start-shift": (args.start_shift, physics.scene.start_shift),
              "settle": (args.settle, physics.scene.settle_time),
              "bonds": (args.bonds, getattr(physics.pipeline, "bond_element", None)),

@@ -65,6 +65,11 @@ def add_evolve(subparsers: argparse._SubParsersAction) -> None:
                            "grown and the regrown robot count alike)")
     task.add_argument("--dim", type=int, choices=(2, 3), help="2D or 3D robots (default 3)")
     task.add_argument("--net", choices=("ff", "lstm"), help="NCA network (default ff)")
+    task.add_argument("--body", choices=("grid", "sheet"),
+                      help="how a grown grid becomes the robot: 'grid' (the default: the grid "
+                           "itself; a 2D one moves in the x-z plane) or 'sheet' (--dim 2: the "
+                           "pattern lies flat on the floor as one layer of voxels and walks in "
+                           "3D for the 2D times, as the paper's 2D robots do)")
     search = parser.add_argument_group("the GA (its preset, and numbers that override it)")
     add_ga_arguments(search, preset_help="GA preset (default: 2d or 3d by --dim)")
     scoring = parser.add_argument_group("physics and scoring")
@@ -100,6 +105,8 @@ def _evolve(args: argparse.Namespace) -> int:
     if optimizer(args) == "map-elites":
         if args.task not in (None, "locomotion") or args.cut or _regrowth_flags(args):
             raise MjregenError("MAP-Elites searches the locomotion task only")
+        if args.body == "sheet":
+            raise MjregenError("--body sheet: MAP-Elites searches grown grids only")
         return run_map_elites_command(args)
     given = [flag for flag, value in (("--descriptors", args.descriptors), ("--cells", args.cells),
                                       ("--emitter", args.emitter), ("--emitters", args.emitters),
@@ -109,7 +116,7 @@ def _evolve(args: argparse.Namespace) -> int:
     if args.resume:
         task, ga, seed = _stored_run(args)
         nca, physics, duration = task.nca, task.physics, task.duration
-        starts, start_seed = task.starts, task.start_seed
+        starts, start_seed, body = task.starts, task.start_seed, getattr(task, "body", "grid")
         regrowth = ({"cut": task.cut, "cell_cost": task.cell_cost,
                      "regrown_weight": task.regrown_weight}
                     if isinstance(task, GrowRegrowTask) else None)
@@ -121,12 +128,16 @@ def _evolve(args: argparse.Namespace) -> int:
         starts = DEFAULT_STARTS if args.starts is None else args.starts
         start_seed = seed
         regrowth = _regrowth_objective(args, nca)
+        body = args.body or "grid"
+        if body == "sheet" and (dim != 2 or regrowth is not None):
+            raise MjregenError("--body sheet lays a 2D pattern flat: it needs --dim 2 and the "
+                               "locomotion task")
     common = dict(out=args.out, nca=nca, ga=ga, seed=seed, physics=physics, duration=duration,
                   starts=starts, start_seed=start_seed, resume=args.resume, force=args.force,
                   progress=not args.quiet)
     with make_backend(args.backend, workers=args.workers, address=args.address) as backend:
         if regrowth is None:
-            summary = evolve_locomotion(backend=backend, **common)
+            summary = evolve_locomotion(backend=backend, body=body, **common)
         else:
             summary = evolve_grow_regrow(backend=backend, **regrowth, **common)
     if args.json:

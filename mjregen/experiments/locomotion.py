@@ -24,7 +24,7 @@ from mjregen.tasks.locomotion import DEFAULT_STARTS, LocomotionTask
 def evolve_locomotion(*, out: str | Path, nca: NCAConfig, ga: GAConfig, seed: int,
                       backend: Backend, physics: Physics | None = None,
                       duration: float | None = None, starts: int = DEFAULT_STARTS,
-                      start_seed: int | None = None,
+                      start_seed: int | None = None, body: str = "grid",
                       resume: bool = False, force: bool = False, progress: bool = True
                       ) -> RunSummary:
     """Evolve NCAs whose robots walk far, into the run folder `out`.
@@ -40,6 +40,7 @@ def evolve_locomotion(*, out: str | Path, nca: NCAConfig, ga: GAConfig, seed: in
       starts: starts each robot walks from; its fitness is their mean (`LocomotionTask`).
       start_seed: seed of the starts; None = `seed` (a run older than starts resumes with
         its own, 0).
+      body: how a grown grid becomes the robot ("grid" or "sheet", `LocomotionTask`).
       resume: continue the run in `out` (these settings must be its own).
       force: replace a run already in `out`.
       progress: a progress bar.
@@ -47,7 +48,8 @@ def evolve_locomotion(*, out: str | Path, nca: NCAConfig, ga: GAConfig, seed: in
       mjregen.search.runs.RunFolderError: `out` holds another run or nothing to resume.
     """
     task = LocomotionTask(nca=nca, physics=physics or Physics(), duration=duration,
-                          starts=starts, start_seed=seed if start_seed is None else start_seed)
+                          starts=starts, start_seed=seed if start_seed is None else start_seed,
+                          body=body)
     return run_evolution(task, ga, seed=seed, out=out, backend=backend,
                          resume=resume, force=force, progress=progress)
 

@@ -3,7 +3,8 @@
 Evolution conditions (`CONDITIONS`): 2D and 3D robots, each grown by a feed-forward
 ("ff") and an LSTM ("lstm") NCA, with the paper's GA (`mjregen.search.ga.PRESETS` "2d"/"3d"),
 its fitness (`mjregen.tasks.locomotion.LocomotionTask`) and its run counts (10 runs in 2D, 24 in
-3D). The regrowth experiment: three diverse evolved 3D walkers (`mjregen.experiments.walkers`), the
+3D). A 2D robot is the paper's: the grown pattern laid flat on the floor as one layer of voxels,
+walked in 3D (body "sheet"). The regrowth experiment: three diverse evolved 3D walkers (`mjregen.experiments.walkers`), the
 paper's cut (`mjregen.tasks.regrowth.paper_cut`, grid x-indices 0-3 of 9 removed), a regrowth NCA
 evolved with the paper's regeneration GA (`PRESETS["regen"]`), then the locomotion
 recovery of the original, damaged and regrown robot (`mjregen.experiments.recovery`); its
@@ -57,6 +58,8 @@ class Condition:
       kind: "ff" or "lstm".
       preset: the paper's GA preset (a key of `mjregen.search.ga.PRESETS`).
       paper_runs: independent runs in the paper (2D 10, 3D 24).
+      body: how a grown grid becomes the robot (`mjregen.tasks.locomotion.BODIES`): 2D
+        "sheet", 3D "grid".
     """
 
     name: str
@@ -64,6 +67,7 @@ class Condition:
     kind: str
     preset: str
     paper_runs: int
+    body: str = "grid"
 
     @property
     def nca(self) -> NCAConfig:
@@ -75,7 +79,8 @@ class Condition:
 
 
 CONDITIONS: dict[str, Condition] = {
-    f"{dim}d_{kind}": Condition(f"{dim}d_{kind}", dim, kind, f"{dim}d", 10 if dim == 2 else 24)
+    f"{dim}d_{kind}": Condition(f"{dim}d_{kind}", dim, kind, f"{dim}d", 10 if dim == 2 else 24,
+                                "sheet" if dim == 2 else "grid")
     for dim in (2, 3) for kind in NETS
 }
 
@@ -177,6 +182,7 @@ class EvolutionJob:
         """Arguments of the equivalent `mjregen evolve` command."""
         ga = self.ga
         args = ["evolve", "--dim", str(self.condition.dim), "--net", self.condition.kind,
+                *(["--body", self.condition.body] if self.condition.body != "grid" else []),
                 "--preset", self.condition.preset, "--pop", str(ga.population),
                 "--gens", str(ga.generations), "--truncation", str(ga.truncation),
                 "--elites", str(ga.elites), "--sigma", f"{ga.sigma:g}", "--seed", str(self.seed)]
@@ -244,7 +250,7 @@ def run_evolution_job(job: EvolutionJob, *, workers: int = 1, progress: bool = T
     with backend:
         return evolve_locomotion(out=job.out, nca=job.condition.nca, ga=job.ga, seed=job.seed,
                                  backend=backend, physics=job.physics, duration=job.duration,
-                                 resume=(job.out / "config.json").is_file(), progress=progress)
+                                 body=job.condition.body, resume=(job.out / "config.json").is_file(), progress=progress)
 
 
 @dataclass(frozen=True)
@@ -278,6 +284,14 @@ class RunInfo:
     @property
     def complete(self) -> bool:
         return self.generations_done >= self.generations_planned
+
+    @property
+    def robot_physics(self) -> Physics:
+        """Today's default physics, for the settle and measured times of this run's robots
+        (a sheet's: the 2D times; `mjregen.tasks.locomotion.body_physics`)."""
+        from mjregen.tasks.locomotion import body_physics
+
+        return body_physics(Physics(), self.config.get("task", {}).get("body", "grid"))
 
     def best_files(self, generation: int | None = None) -> tuple[Path, Path]:
         """(NCA ``.npz``, robot ``.npy``) of a generation's best (default: `best_generation`)."""
@@ -327,14 +341,16 @@ def best_run(runs: list[RunInfo]) -> RunInfo:
     return max(runs, key=lambda r: (r.best_fitness, -r.seed))
 
 
-def best_robots(root: str | Path = DEFAULT_ROOT) -> dict[str, Path]:
+def best_robots(root: str | Path = DEFAULT_ROOT) -> dict[str, tuple[Path, Physics]]:
     """Each condition's best robot under `root`: the best generation's robot of its
-    `best_run`, as {path relative to `root`: path} (the names `benchmarks/transfer.py
-    --best-of` gives its measurements and the results report looks them up by)."""
+    `best_run`, as {path relative to `root`: (path, the physics it walks in,
+    `RunInfo.robot_physics`)} (the names `benchmarks/transfer.py --best-of` gives its
+    measurements and the results report looks them up by)."""
     robots = {}
     for runs in list_runs(root).values():
-        path = best_run(runs).best_files()[1]
-        robots[path.relative_to(Path(root)).as_posix()] = path
+        run = best_run(runs)
+        path = run.best_files()[1]
+        robots[path.relative_to(Path(root)).as_posix()] = (path, run.robot_physics)
     return robots
 
 

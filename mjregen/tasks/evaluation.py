@@ -22,13 +22,15 @@ from mjregen.tasks.fitness import locomotion_fitness
 @dataclass(frozen=True)
 class RobotJob:
     """A robot grid (int8 array, any valid shape) with its physics, measured time (s; None =
-    the scene's), number of starts (>= 1; starts 0, 1, ...) and the starts' seed."""
+    the scene's), number of starts (>= 1; starts 0, 1, ...), the starts' seed and the
+    fitness rule (2 or 3, `locomotion_fitness`; None = the grid's dimension)."""
 
     grid: np.ndarray
     physics: Physics
     duration: float | None = None
     starts: int = 1
     start_seed: int = 0
+    rule: int | None = None
 
 
 @dataclass(frozen=True)
@@ -83,8 +85,8 @@ def evaluate_robot(job: RobotJob) -> RobotEvaluation:
     distances = tuple(r.distance for r in results)
     first = results[0]
     return RobotEvaluation(
-        fitness=(locomotion_fitness(unstable[0]) if unstable
-                 else float(np.mean([locomotion_fitness(r) for r in results]))),
+        fitness=(locomotion_fitness(unstable[0], rule=job.rule) if unstable
+                 else float(np.mean([locomotion_fitness(r, rule=job.rule) for r in results]))),
         distance=float(np.mean(distances)), distance_min=float(np.min(distances)),
         distances=distances, n_voxels=first.n_voxels, stable=not unstable,
         reason=unstable[0].reason if unstable else "",

@@ -9,13 +9,17 @@ EMPTY_FITNESS = {3: -20.0, 2: 0.0}  # the paper's score of a robot without voxel
 UNSTABLE_FITNESS = {3: -21.0, 2: -1.0}  # below every stable robot and the empty one
 
 
-def locomotion_fitness(result: Result) -> float:
-    """3D: distance − 0.0583·voxels; 2D: distance (voxel lengths). An empty robot scores
-    −20 (3D) or 0 (2D), an unstable run −21 (3D) or −1 (2D)."""
+def locomotion_fitness(result: Result, *, rule: int | None = None) -> float:
+    """3D rule: distance − 0.0583·voxels; 2D rule: distance (voxel lengths). An empty robot
+    scores −20 (3D) or 0 (2D), an unstable run −21 (3D) or −1 (2D). `rule`: 2 or 3, the
+    rule to apply; None = the robot's dimension (a 2D sheet walked in 3D takes rule 2)."""
+    dim = result.dim if rule is None else rule
+    if dim not in EMPTY_FITNESS:
+        raise ValueError(f"no locomotion fitness rule for dimension {dim!r} (2 or 3)")
     if result.n_voxels == 0:
-        return EMPTY_FITNESS[result.dim]
+        return EMPTY_FITNESS[dim]
     if not result.stable:
-        return UNSTABLE_FITNESS[result.dim]
-    if result.dim == 3:
+        return UNSTABLE_FITNESS[dim]
+    if dim == 3:
         return result.distance - VOXEL_COST * result.n_voxels
     return result.distance

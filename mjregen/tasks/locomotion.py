@@ -1,6 +1,7 @@
 """The locomotion fitness pipeline of an evolution.
 
-genomes ``(P, G)`` → batched NCA growth → the paper's cleaning → identical robots merged
+genomes ``(P, G)`` → batched NCA growth → the paper's cleaning → the robots (`BODIES`: the
+grown grids themselves, or 2D patterns laid flat as sheets) → identical robots merged
 (each distinct grid is simulated once per generation) → robots already simulated in an
 earlier generation (elites, recurring shapes) taken from a cache → simulation of the rest on a
 backend, each robot from `starts` starts (every voxel moved by an offset seeded by
@@ -18,6 +19,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from mjregen.grid import lay_flat
 from mjregen.growth.nca import NCAConfig, grow
 from mjregen.physics import Physics, PhysicsParameterError
 from mjregen.physics.start_state import MAX_STARTS, check_start
@@ -34,6 +36,21 @@ from mjregen.tasks.starts import DEFAULT_STARTS
 if TYPE_CHECKING:  # the search layer hands a task its backend
     from mjregen.search.backends import Backend
 
+BODIES = {
+    "grid": "the grown grid is the robot (a 2D one moves in the x-z plane)",
+    "sheet": "a 2D pattern lies flat on the floor as one layer of voxels and walks in 3D "
+             "(the paper's 2D robots), for the 2D times, scored by the 2D rule",
+}
+
+
+def body_physics(physics: Physics, body: str) -> Physics:
+    """The physics robots of `body` walk in: `physics`, for a sheet with its unset settle
+    and measured times the paper's 2D ones (a sheet is a 3D robot, whose defaults are 3D's)."""
+    if body != "sheet":
+        return physics
+    settle, measured = physics.scene.timing(2)
+    return physics.replace(settle_time=settle, measured_time=measured)
+
 
 @dataclass(frozen=True)
 class LocomotionTask:
@@ -47,6 +64,7 @@ class LocomotionTask:
       start_seed: seed of the starts (>= 0; an evolution's is its run's seed).
       cache_size: robots whose results are kept across generations (least recently used
         dropped first); a robot seen again is not simulated again.
+      body: how a grown grid becomes the robot (`BODIES`); "sheet" only for a 2D NCA.
     """
 
     nca: NCAConfig
@@ -55,6 +73,7 @@ class LocomotionTask:
     starts: int = DEFAULT_STARTS
     start_seed: int = 0
     cache_size: int = 20_000
+    body: str = "grid"
     _cache: LRUCache = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -70,17 +89,24 @@ class LocomotionTask:
                 f"{self.starts} starts need a start shift > 0: with start_shift 0 every start "
                 "is the exact start, the same walk each time")
         check_start("start_seed", self.start_seed)
+        if self.body not in BODIES:
+            raise ValueError(f"unknown body {self.body!r}; choose one of {', '.join(BODIES)}")
+        if self.body == "sheet" and self.nca.dim != 2:
+            raise ValueError(f"a sheet body lays a 2D pattern flat; this NCA is "
+                             f"{self.nca.dim}D")
 
     def to_config(self) -> dict:
         """The task as JSON (a run folder's config.json "task" entry)."""
         return {"task": "locomotion", "nca": self.nca.to_dict(),
                 "physics": self.physics.to_dict(), "duration": self.duration,
-                "starts": int(self.starts), "start_seed": int(self.start_seed)}
+                "starts": int(self.starts), "start_seed": int(self.start_seed),
+                "body": self.body}
 
     @classmethod
     def from_config(cls, config: dict) -> LocomotionTask:
         """The task `to_config` described (physics descriptions of any format migrate; a
-        description without starts is one from before them: one start, seed 0).
+        description without starts is one from before them: one start, seed 0; one without
+        a body walks the grown grid).
 
         Raises:
           ValueError: `config` is not a locomotion task's.
@@ -90,7 +116,8 @@ class LocomotionTask:
             raise ValueError(f"not a locomotion task: {config.get('task')!r}")
         return cls(nca=NCAConfig.from_dict(config["nca"]),
                    physics=Physics.from_dict(config["physics"]), duration=config["duration"],
-                   starts=config.get("starts", 1), start_seed=config.get("start_seed", 0))
+                   starts=config.get("starts", 1), start_seed=config.get("start_seed", 0),
+                   body=config.get("body", "grid"))
 
     @property
     def genome_size(self) -> int:
@@ -101,13 +128,26 @@ class LocomotionTask:
         """Below every fitness this task gives: the unstable penalty."""
         return UNSTABLE_FITNESS[self.nca.dim]
 
+    @property
+    def robot_physics(self) -> Physics:
+        """The physics the robots walk in (`body_physics`)."""
+        return body_physics(self.physics, self.body)
+
+    def robots(self, grids: np.ndarray) -> np.ndarray:
+        """The robots of grown grids ``(P, *grid)``: the grids, or (sheet) the patterns laid
+        flat, int8 ``(P, X, Y, 3)``."""
+        return lay_flat(grids) if self.body == "sheet" else grids
+
     def evaluate(self, genomes: np.ndarray, backend: Backend) -> PopulationEvaluation:
         """Score a population of genomes ``(P, G)``."""
         return self.evaluate_grids(grow(self.nca, genomes).grids, backend)
 
     def evaluate_grids(self, grids: np.ndarray, backend: Backend) -> PopulationEvaluation:
-        """Score the robots the genomes grew, int8 ``(P, *grid)``."""
+        """Score the robots of grown grids, int8 ``(P, *grid)``; the evaluation's grids are
+        the robots (`robots`)."""
+        grids = self.robots(grids)
         population, dim = len(grids), self.nca.dim
+        physics = self.robot_physics
         distinct: dict[bytes, int] = {}
         owner = np.array([distinct.setdefault(g.tobytes(), len(distinct)) for g in grids])
         firsts = np.unique(owner, return_index=True)[1]
@@ -121,8 +161,8 @@ class LocomotionTask:
                              key=lambda d: -expected_cost(grids[firsts[d]]))
         outcomes = backend.map(
             evaluate_robot,
-            [RobotJob(grids[firsts[d]], self.physics, self.duration, self.starts,
-                      self.start_seed) for d in to_simulate],
+            [RobotJob(grids[firsts[d]], physics, self.duration, self.starts,
+                      self.start_seed, rule=dim) for d in to_simulate],
         )
         for d, outcome in zip(to_simulate, outcomes):
             if outcome.ok:  # failures are not results: they are retried next time

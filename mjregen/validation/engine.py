@@ -22,6 +22,9 @@ import numpy as np
 
 from mjregen.errors import MjregenError
 from mjregen.grid import Robot
+from mjregen.physics.params import PAPER_TIMES
+
+PAPER_DT_FRACTION = 0.9  # the paper's step, as a fraction of the engine's own rule (DtFrac)
 
 
 @functools.cache
@@ -66,15 +69,24 @@ class PaperEngine:
             raise MjregenError(f"the paper's engine ({self.folder / 'vxa.py'}) failed: "
                                f"{type(error).__name__}: {error}") from error
 
-    def distance(self, robot: Robot) -> float | None:
-        """The distance the engine walks `robot` (voxel lengths, the paper's 3D settle and
-        walk); None for a 2D robot (the engine runs 3D grids).
+    def distance(self, robot: Robot, *, times: tuple[float, float] | None = None
+                 ) -> float | None:
+        """The distance the engine walks `robot` (voxel lengths); None for a 2D robot (one
+        in the x-z plane: the engine runs 3D grids).
 
+        Args:
+          times: (settle, measured) s; None or the paper's 3D (0.05, 0.5) = the runner's
+            own run, otherwise `run_window` at the paper's step fraction 0.9 (a sheet:
+            the paper's 2D times, (1.0, 0.25)).
         Raises:
           MjregenError: the runner failed or gave no distance.
         """
         if robot.dim != 3:
             return None
+        if times is not None and tuple(times) != PAPER_TIMES[3]:
+            settle, measured = times
+            return self.run_window(robot.grid, dt_fraction=PAPER_DT_FRACTION,
+                                   stop=settle + measured, measure_from=settle)["distance"]
         answer = self.run(robot.grid)
         try:
             return float(answer["distance"])

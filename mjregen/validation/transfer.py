@@ -82,24 +82,31 @@ def rotations(robot: Robot) -> list[Robot]:
 
 
 def measure_transfer(robot: Robot, *, name: str = "robot", starts: int = 10,
-                     engine: PaperEngine | None = None) -> Transfer:
-    """Walk `robot` every way `Transfer` lists, with the default physics."""
+                     engine: PaperEngine | None = None,
+                     physics: Physics | None = None) -> Transfer:
+    """Walk `robot` every way `Transfer` lists, with `physics` (None = the default; a sheet
+    of a 2D run: `mjregen.tasks.locomotion.body_physics`), the engine for the same settle
+    and measured times."""
+    physics = physics or Physics()
+
     def distances(seed: int) -> list[float]:
-        return [r.distance for r in simulate_starts(robot, start_seed=seed,
+        return [r.distance for r in simulate_starts(robot, physics=physics, start_seed=seed,
                                                     starts=range(starts))]
 
-    exact = simulate(robot, physics=Physics().replace(start_shift=0.0))
+    exact = simulate(robot, physics=physics.replace(start_shift=0.0))
+    times = physics.scene.timing(robot.dim)
     return Transfer(name=name, voxels=robot.n_voxels, mirror_axes=list(robot.mirror_axes()),
                     starts=distances(0), fresh=distances(1),
-                    rotated=[simulate(r).distance for r in rotations(robot)],
+                    rotated=[simulate(r, physics=physics).distance for r in rotations(robot)],
                     exact=exact.distance,
-                    engine=None if engine is None else engine.distance(robot))
+                    engine=None if engine is None else engine.distance(robot, times=times))
 
 
-def transfer_record(row: Transfer, starts: int) -> dict:
+def transfer_record(row: Transfer, starts: int, physics: Physics | None = None) -> dict:
     """`row` as a shipped walker's manifest block "transfer" (what tests/test_assets.py reads
-    back): the physics, every walk, the rule, the verdict and the date."""
-    return {"physics": Physics().to_dict(), "starts": starts, "distance": row.distance,
+    back): the physics (None = the default) it was measured with, every walk, the rule, the
+    verdict and the date."""
+    return {"physics": (physics or Physics()).to_dict(), "starts": starts, "distance": row.distance,
             "distances": row.starts, "fresh": float(np.mean(row.fresh)),
             "fresh_distances": row.fresh, "rotated": row.rotated, "exact_start": row.exact,
             "engine": row.engine, "rule": TRANSFER_RULE, "transfers": row.transfers,

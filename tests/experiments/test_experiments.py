@@ -14,7 +14,7 @@ from mjregen.cli import main as mjregen_main
 from mjregen.experiments import paper as ex
 from mjregen.experiments import regrowth
 from mjregen.experiments import walkers as wk
-from mjregen.grid import Robot
+from mjregen.grid import Robot, lay_flat
 from mjregen.growth.checkpoint import load_nca, save_nca
 from mjregen.growth.nca import NCA, NCAConfig, grow
 from mjregen.physics import Physics
@@ -82,7 +82,8 @@ def kill_after(job: ex.EvolutionJob, generation: int) -> None:
         if row["generation"] == generation:
             raise Killed
 
-    task = LocomotionTask(nca=job.condition.nca, physics=job.physics, duration=job.duration)
+    task = LocomotionTask(nca=job.condition.nca, physics=job.physics, duration=job.duration,
+                          body=job.condition.body)
     with pytest.raises(Killed):
         run_evolution(task, job.ga, seed=job.seed, out=job.out, backend=SerialBackend(),
                       progress=False, on_generation=kill)
@@ -293,13 +294,17 @@ def test_ship_assets_matches_resimulation_and_never_overwrites(results, tmp_path
         assert entry["source"]["matches_run"] and entry["scale"] == "smoke"
         assert entry["placeholder"] is False and entry["versions"]["mjregen"]
         nca, _ = load_nca(assets / "nca" / entry["file"])
-        robot = nca.grow().robot()
+        robot = Robot(lay_flat(nca.grow().robot().grid))  # the paper's 2D robot: a sheet
         assert robot == Robot.load(assets / "nca" / entry["robot_file"])
         evaluation = entry["evaluation"]  # as the run scored it: its starts and their seed
         assert (evaluation["starts"], evaluation["start_seed"]) == (1, best.seed)
-        result = simulate(robot, physics=Physics.from_dict(evaluation["physics"]),
-                          duration=evaluation["duration_s"], start_seed=evaluation["start_seed"])
-        assert locomotion_fitness(result) == pytest.approx(entry["fitness"], rel=1e-6, abs=1e-9)
+        assert evaluation["body"] == "sheet"
+        physics = Physics.from_dict(evaluation["physics"]).replace(
+            settle_time=evaluation["settle_s"])
+        result = simulate(robot, physics=physics, duration=evaluation["duration_s"],
+                          start_seed=evaluation["start_seed"])
+        assert locomotion_fitness(result, rule=2) == pytest.approx(entry["fitness"], rel=1e-6,
+                                                                   abs=1e-9)
         assert entry["robot"]["voxels"] == robot.n_voxels
         assert entry["sha256"] == ship_assets.sha256(assets / "nca" / entry["file"])
     before = (assets / "nca" / "manifest.json").read_bytes()
@@ -325,7 +330,7 @@ def test_ship_assets_with_the_engine_ships_the_farthest_robot_that_transfers(
 
     measured = {}  # robot file -> its walks: seed 0 walks farther but not in the engine
 
-    def stand_in(robot, *, name, starts, engine):
+    def stand_in(robot, *, name, starts, engine, physics):
         seed = int(name.split()[-1])
         measured[seed] = (robot, starts)
         return walks(seed, 9.0, 1.0) if seed == 0 else walks(seed, 6.0, 5.5)
@@ -349,7 +354,7 @@ def test_ship_assets_with_the_engine_ships_the_farthest_robot_that_transfers(
         assert measured[run.seed][1] == 4
     # no robot that transfers: an error naming each, and nothing shipped
     monkeypatch.setattr(ship_assets, "measure_transfer",
-                        lambda robot, *, name, starts, engine: walks(0, 9.0, 1.0))
+                        lambda robot, *, name, starts, engine, physics: walks(0, 9.0, 1.0))
     before = (assets / "nca" / "manifest.json").read_bytes()
     capsys.readouterr()
     assert ship_assets.main(args + ["--overwrite"]) == 1
@@ -369,7 +374,7 @@ def test_results_report_writes_every_section(results, tmp_path, monkeypatch):
     # the paper engine's measurement of 3d_ff's best robot, as transfer.py --best-of keeps it
     best = ex.best_robots(results)
     name = next(n for n in best if n.startswith("3d_ff/"))
-    assert best[name] == ex.best_run(ex.list_runs(results)["3d_ff"]).best_files()[1]
+    assert best[name][0] == ex.best_run(ex.list_runs(results)["3d_ff"]).best_files()[1]
     transfer = results / results_report.TRANSFER_FILE
     transfer.write_text(json.dumps([{"name": name, "engine": 12.5, "transfers": True},
                                     {"name": "3d_ff/seed_9/best/gen_0001.npy", "engine": 1.0,

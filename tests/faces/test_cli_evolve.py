@@ -9,6 +9,7 @@ import subprocess
 import sys
 import time
 
+import numpy as np
 import pytest
 
 from mjregen.cli import main
@@ -135,3 +136,22 @@ def test_grow_regrow_judged_by_the_regrown_walk_too(tmp_path, capsys):
                  str(tmp_path / "b")]) == 1
     assert "regrown_weight must be in [0, 1], got 2.0" in capsys.readouterr().err
     assert not (tmp_path / "b").exists()
+
+
+def test_sheet_runs_store_their_body_resume_and_refuse_another(tmp_path, capsys):
+    out = tmp_path / "sheet"
+    assert main(["evolve", *TINY, "--body", "sheet", "--gens", "2", "--backend", "serial",
+                 "--out", str(out)]) == 0
+    config = json.loads((out / "config.json").read_text())
+    assert config["task"]["body"] == "sheet"
+    robot = np.load(out / "best" / "gen_0001.npy")
+    assert robot.shape == (7, 7, 3) and not robot[:, :, [0, 2]].any()  # one layer
+    assert main(["evolve", "--out", str(out), "--resume", "--backend", "serial", "--quiet"]) == 0
+    assert main(["evolve", "--out", str(out), "--resume", "--body", "grid", "--quiet"]) == 1
+    assert "--body grid (run has sheet)" in capsys.readouterr().err
+    for flags in (["--dim", "3"], ["--dim", "2", "--task", "grow-regrow"]):
+        assert main(["evolve", *flags, "--body", "sheet", "--out", str(tmp_path / "no")]) == 1
+        assert "--body sheet lays a 2D pattern flat" in capsys.readouterr().err
+    assert main(["evolve", "--dim", "2", "--body", "sheet", "--optimizer", "map-elites",
+                 "--out", str(tmp_path / "no")]) == 1
+    assert "--body sheet: MAP-Elites searches grown grids only" in capsys.readouterr().err

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from mjregen.errors import GridFileError, InvalidGridError
-from mjregen.grid import Material, Robot, clean_grids
+from mjregen.grid import Material, Robot, clean_grids, lay_flat
 
 PAPER_ROBOTS = Path(__file__).resolve().parents[2] / "assets" / "robots" / "paper"
 
@@ -305,3 +305,19 @@ def test_mirror_axes_are_horizontal_only():
     sheet[2, 1] = 3
     assert Robot(sheet).mirror_axes() == ()
     assert Robot(np.zeros((9, 9, 9), dtype=np.int8)).mirror_axes() == ()
+
+
+def test_a_pattern_laid_flat_is_one_layer_on_the_floor():
+    pattern = np.zeros((7, 7), dtype=np.int8)
+    pattern[1:6, 2] = Material.MUSCLE_PLUS
+    pattern[3, 1:6] = Material.HARD
+    sheet = lay_flat(pattern)
+    assert sheet.shape == (7, 7, 3) and sheet.dtype == np.int8
+    assert np.array_equal(sheet[:, :, 1], pattern)
+    assert not sheet[:, :, 0].any() and not sheet[:, :, 2].any()
+    robot = Robot(sheet)
+    assert robot.dim == 3 and robot.n_voxels == np.count_nonzero(pattern)
+    batch = lay_flat(np.stack([pattern, pattern.T]))
+    assert batch.shape == (2, 7, 7, 3) and np.array_equal(batch[1, :, :, 1], pattern.T)
+    with pytest.raises(InvalidGridError, match=r"needs 2 axes \[x, y\], got shape \(7,\)"):
+        lay_flat(pattern[0])

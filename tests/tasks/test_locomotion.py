@@ -232,3 +232,51 @@ def test_several_exact_starts_are_refused():
     with pytest.raises(ValueError, match="need a start shift > 0"):
         locomotion.LocomotionTask(nca=NCA, physics=QUICK.replace(start_shift=0.0), starts=2)
     assert locomotion.LocomotionTask(nca=NCA, physics=QUICK.replace(start_shift=0.0)).starts == 1
+
+
+def test_a_sheet_is_the_pattern_laid_flat_walked_in_3d_and_scored_by_the_2d_rule():
+    """The paper's 2D robots: its code writes the grown pattern into Voxelyze as one layer
+    (Z_Voxels 1) and scores the distance alone."""
+    task = fresh_task(body="sheet")
+    patterns = grow(NCA, population()).grids
+    result = task.evaluate_grids(patterns, SerialBackend())
+    assert result.grids.shape == patterns.shape + (3,)
+    for pattern, fitness in zip(patterns, result.fitness):
+        sheet = np.zeros(pattern.shape + (3,), dtype=np.int8)
+        sheet[:, :, 1] = pattern
+        walked = simulate(sheet, physics=QUICK, duration=0.02)
+        assert walked.dim == 3
+        assert fitness == (walked.distance if pattern.any() else EMPTY_FITNESS[2])
+    assert np.any(result.fitness > 0)  # not only empty robots
+
+
+def test_a_sheet_walks_for_the_paper_2d_times_unless_they_are_set():
+    sheet = locomotion.LocomotionTask(nca=NCA, body="sheet")
+    assert sheet.robot_physics.scene.timing(3) == (1.0, 0.25)  # a 3D robot, 2D times
+    assert sheet.robot_physics.replace(settle_time=None, measured_time=None) == sheet.physics
+    assert fresh_task(body="sheet").robot_physics.scene.timing(3) == (0.01, 0.25)
+    assert locomotion.LocomotionTask(nca=NCA).robot_physics == Physics()  # a grid: unchanged
+
+
+def test_a_body_is_part_of_the_task_configuration():
+    task = fresh_task(body="sheet")
+    config = task.to_config()
+    assert config["body"] == "sheet"
+    assert locomotion.LocomotionTask.from_config(config) == task
+    older = {k: v for k, v in TASK.to_config().items() if k != "body"}
+    assert locomotion.LocomotionTask.from_config(older).body == "grid"
+    with pytest.raises(ValueError, match="unknown body 'plate'; choose one of grid, sheet"):
+        fresh_task(body="plate")
+    with pytest.raises(ValueError, match="a sheet body lays a 2D pattern flat; this NCA is 3D"):
+        locomotion.LocomotionTask(nca=NCAConfig(dim=3, kind="ff"), body="sheet")
+
+
+def test_the_fitness_rule_can_be_the_other_dimension():
+    robot = np.zeros((5, 5, 3), dtype=np.int8)
+    robot[1:4, 1:4, 1] = Material.MUSCLE_PLUS
+    walked = simulate(robot, physics=QUICK, duration=0.02)
+    assert locomotion_fitness(walked, rule=2) == walked.distance
+    assert locomotion_fitness(walked) == locomotion_fitness(walked, rule=3) == pytest.approx(
+        walked.distance - VOXEL_COST * 9)
+    with pytest.raises(ValueError, match="no locomotion fitness rule for dimension 4"):
+        locomotion_fitness(walked, rule=4)

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from mjregen.errors import MjregenError
-from mjregen.grid import Robot
+from mjregen.grid import Material, Robot, lay_flat
+from mjregen.physics import Physics
 from mjregen.physics.simulation import simulate, simulate_starts
 from mjregen.resources import asset
 from mjregen.validation.engine import PaperEngine
@@ -126,3 +127,21 @@ def test_the_engine_is_refused_clearly_when_it_is_not_there_or_fails(tmp_path):
     sheet = np.zeros((3, 3), dtype=np.int8)
     sheet[1, 1] = 1
     assert broken.distance(Robot(sheet)) is None  # 2D: not run
+
+
+def test_the_engine_walks_a_robot_for_the_times_it_is_given(tmp_path):
+    """A 2D run's sheet walks for the 2D times in the engine as in mjregen; the paper's 3D
+    times are the runner's own run."""
+    engine = stand_in_engine(tmp_path / "engine", 1.0)
+    assert engine.distance(TRIPOD) == engine.distance(TRIPOD, times=(0.05, 0.5)) == 1.0
+    assert engine.distance(TRIPOD, times=(1.0, 0.25)) == pytest.approx(100 * 0.9 + 10 * 1.25
+                                                                        + 1.0)
+
+
+def test_a_sheet_is_measured_for_its_times_in_mjregen_and_in_the_engine(tmp_path):
+    engine = stand_in_engine(tmp_path / "engine", 1.0)
+    sheet = Robot(lay_flat(np.pad(np.full((3, 3), Material.MUSCLE_PLUS, np.int8), 1)))
+    quick = Physics().replace(settle_time=0.02, measured_time=0.03)
+    row = measure_transfer(sheet, starts=1, engine=engine, physics=quick)
+    assert row.starts == [simulate(sheet, physics=quick).distance]
+    assert row.engine == pytest.approx(100 * 0.9 + 10 * 0.05 + 0.02)
