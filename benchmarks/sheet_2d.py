@@ -68,7 +68,10 @@ def walk_three_ways(name: str, pattern: np.ndarray, engine: PaperEngine) -> dict
 def summary(rows: list[dict]) -> str:
     moving = [r for r in rows if max(r["sheet"], r["engine"]) > MOVES]
     ratios = np.array([r["engine"] / r["sheet"] for r in moving if r["sheet"] > MOVES])
-    within = lambda low, high: int(np.sum((ratios >= low) & (ratios <= high)))  # noqa: E731
+
+    def within(low: float, high: float) -> int:
+        return int(np.sum((ratios >= low) & (ratios <= high)))
+
     cpu = {k: float(np.median([r[f"{k}_cpu_s"] for r in rows]))
            for k in ("sheet", "engine", "plane")}
     lines = [f"- {len(rows)} robots, {len(moving)} move more than {MOVES} voxel lengths "
