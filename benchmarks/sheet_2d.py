@@ -7,7 +7,7 @@ The paper's code writes a grown 2D pattern into Voxelyze as one layer of voxels 
 floor (Z_Voxels 1) and walks it for 1.0 s of settle and 0.25 s measured. Each robot here
 (the non-empty patterns of ``--robots`` initial genomes of each 2D network, seed ``--seed``,
 and the patterns given) is walked three ways: as that sheet in mjregen (the default physics
-for the 2D times, start 0: `mjregen.tasks.locomotion.body_physics`), as the same sheet in the
+for the 2D times, start 0: `mjregen.tasks.bodies.body_physics`), as the same sheet in the
 paper's engine (DIR: its folder with ``vxa.py``), and as a robot in the x-z plane (mjregen's
 "grid" body of a 2D pattern, which the engine cannot run). Prints the distances and the CPU
 seconds of each walk, and a summary: the engine's distance over mjregen's for the robots
@@ -29,7 +29,7 @@ from mjregen.growth.nca import NCAConfig, grow
 from mjregen.growth.networks import random_genomes
 from mjregen.physics import Physics
 from mjregen.physics.simulation import simulate
-from mjregen.tasks.locomotion import body_physics
+from mjregen.tasks.bodies import body_physics
 from mjregen.validation.engine import PaperEngine
 
 MOVES = 0.01  # voxel lengths: a robot that moves less in both is left out of the ratios

@@ -45,7 +45,7 @@ import numpy as np
 from mjregen.errors import MjregenError
 from mjregen.grid import Robot
 from mjregen.physics import Physics
-from mjregen.tasks.locomotion import body_physics
+from mjregen.tasks.bodies import body_physics
 from mjregen.validation.engine import PaperEngine
 from mjregen.validation.transfer import Transfer, measure_transfer, transfer_record
 

@@ -117,7 +117,7 @@ def measure(npz: Path, run_config: dict, expected_robot: Path | None = None) -> 
     from mjregen.growth.checkpoint import load_nca
     from mjregen.physics import Physics
     from mjregen.tasks.evaluation import RobotJob, evaluate_robot
-    from mjregen.tasks.locomotion import body_physics
+    from mjregen.tasks.bodies import body_physics
 
     task = run_config.get("task", {})
     if not isinstance(task.get("physics"), dict):

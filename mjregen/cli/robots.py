@@ -22,7 +22,7 @@ from mjregen.cli.common import (
     workers,
 )
 from mjregen.errors import MjregenError, OutputExistsError
-from mjregen.grid import Robot
+from mjregen.grid import Robot, lay_flat
 
 
 def add_grow(subparsers: argparse._SubParsersAction) -> None:
@@ -131,6 +131,11 @@ def add_walk(subparsers: argparse._SubParsersAction) -> None:
     )
     parser.add_argument("robot", type=Path, help="robot file (.npy)")
     add_physics_arguments(parser)
+    parser.add_argument("--body", choices=("grid", "sheet"),
+                        help="'sheet': walk a 2D pattern (or a 2D run's sheet) as the paper's "
+                             "2D robot: laid flat on the floor as one layer, for the 2D times "
+                             "unless --settle/--duration, scored by its distance (default "
+                             "'grid': the file's grid as it is)")
     parser.add_argument("--starts", type=starts_count, metavar="K",
                         help="walk from K starts (0 .. K-1) and report their mean, min and "
                              "each distance (default 1)")
@@ -175,11 +180,14 @@ def _check_walk_request(args: argparse.Namespace, robot: Robot) -> None:
 def _walk(args: argparse.Namespace) -> int:
     from mjregen.fileio import atomic_open
     from mjregen.physics.simulation import simulate_starts
+    from mjregen.tasks.bodies import body_physics
     from mjregen.tasks.fitness import locomotion_fitness
 
     robot = Robot.load(args.robot)
     _check_walk_request(args, robot)
-    physics = physics_from_args(args)
+    physics, rule = physics_from_args(args), None
+    if args.body == "sheet":
+        robot, physics, rule = _as_sheet(args.robot, robot), body_physics(physics, "sheet"), 2
     record = args.trajectory is not None
     start_seed = args.start_seed or 0
     checked = None
@@ -194,7 +202,7 @@ def _walk(args: argparse.Namespace) -> int:
         with atomic_open(args.trajectory, "w") as handle:
             handle.write("t,x,y,z\n")
             np.savetxt(handle, np.column_stack([result.times, result.com]), delimiter=",", fmt="%.9g")
-    report = _walk_report(args, result, results)
+    report = _walk_report(args, result, results, rule)
     if checked is not None:
         report["shifted_starts"] = {
             "starts": len(checked.indices), "shift": checked.shift, "seed": checked.seed,
@@ -210,7 +218,7 @@ def _walk(args: argparse.Namespace) -> int:
     start = "the exact start" if checked is not None else f"start 0 (seed {start_seed})"
     print(f"{args.robot}: {result.n_voxels} voxels, from {start}: distance {result.distance:.4f} "
           f"voxel lengths (dx {dx:.4f}, dy {dy:.4f}, heading {result.heading:.1f} deg), "
-          f"fitness {locomotion_fitness(result):.4f}, {verdict}")
+          f"fitness {locomotion_fitness(result, rule=rule):.4f}, {verdict}")
     print(f"{result.steps} steps of {result.timestep:.3g} s ({result.sim_time:.3f} s simulated) "
           f"in {result.wall_time:.2f} s wall, {result.cpu_time:.2f} s CPU")
     if len(results) > 1:
@@ -224,13 +232,29 @@ def _walk(args: argparse.Namespace) -> int:
     return 0
 
 
-def _walk_report(args: argparse.Namespace, result, results: list) -> dict:
-    """The walk's JSON report: the first start's walk and, for several, all of them."""
+def _as_sheet(path: Path, robot: Robot) -> Robot:
+    """`robot` as the paper's 2D robot: a 2D pattern laid flat, or a sheet as it is.
+
+    Raises:
+      MjregenError: a 3D grid that is not one layer at z = 1 of three.
+    """
+    grid = robot.grid
+    if robot.dim == 2:
+        return Robot(lay_flat(grid))
+    if grid.shape[2] != 3:
+        raise MjregenError(f"{path} is not a sheet: a 3D grid of {grid.shape[2]} layers "
+                           "(a sheet has one voxel layer between two empty ones)")
+    return robot
+
+
+def _walk_report(args: argparse.Namespace, result, results: list, rule: int | None) -> dict:
+    """The walk's JSON report: the first start's walk and, for several, all of them; fitness
+    by the `locomotion_fitness` rule `rule`."""
     from mjregen.tasks.fitness import locomotion_fitness
 
     report = {"robot": str(args.robot), "voxels": result.n_voxels, "distance": result.distance,
               "displacement": list(result.displacement), "heading": result.heading,
-              "fitness": locomotion_fitness(result), "stable": result.stable,
+              "fitness": locomotion_fitness(result, rule=rule), "stable": result.stable,
               "reason": result.reason, "steps": result.steps, "sim_time": result.sim_time,
               "timestep": result.timestep, "wall_time": result.wall_time,
               "cpu_time": result.cpu_time}
@@ -242,8 +266,9 @@ def _walk_report(args: argparse.Namespace, result, results: list) -> dict:
             "seed": args.start_seed or 0, "distances": distances.tolist(),
             "mean": float(distances.mean()), "min": float(stable.min()) if stable.size else math.nan,
             "max": float(stable.max()) if stable.size else math.nan, "unstable": len(unstable),
-            "fitness": (locomotion_fitness(unstable[0]) if unstable
-                        else float(np.mean([locomotion_fitness(r) for r in results])))}
+            "fitness": (locomotion_fitness(unstable[0], rule=rule) if unstable
+                        else float(np.mean([locomotion_fitness(r, rule=rule)
+                                            for r in results])))}
     return report
 
 

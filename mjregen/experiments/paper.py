@@ -39,6 +39,7 @@ from mjregen.errors import MjregenError
 from mjregen.growth.nca import NCAConfig
 from mjregen.physics import Physics
 from mjregen.search.ga import PRESETS, GAConfig
+from mjregen.tasks.bodies import body_physics
 
 DEFAULT_ROOT = Path("runs") / "results"
 NETS = ("ff", "lstm")
@@ -58,7 +59,7 @@ class Condition:
       kind: "ff" or "lstm".
       preset: the paper's GA preset (a key of `mjregen.search.ga.PRESETS`).
       paper_runs: independent runs in the paper (2D 10, 3D 24).
-      body: how a grown grid becomes the robot (`mjregen.tasks.locomotion.BODIES`): 2D
+      body: how a grown grid becomes the robot (`mjregen.tasks.bodies.BODIES`): 2D
         "sheet", 3D "grid".
     """
 
@@ -288,9 +289,7 @@ class RunInfo:
     @property
     def robot_physics(self) -> Physics:
         """Today's default physics, for the settle and measured times of this run's robots
-        (a sheet's: the 2D times; `mjregen.tasks.locomotion.body_physics`)."""
-        from mjregen.tasks.locomotion import body_physics
-
+        (a sheet's: the 2D times; `mjregen.tasks.bodies.body_physics`)."""
         return body_physics(Physics(), self.config.get("task", {}).get("body", "grid"))
 
     def best_files(self, generation: int | None = None) -> tuple[Path, Path]:

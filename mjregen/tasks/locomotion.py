@@ -19,10 +19,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from mjregen.grid import lay_flat
 from mjregen.growth.nca import NCAConfig, grow
 from mjregen.physics import Physics, PhysicsParameterError
 from mjregen.physics.start_state import MAX_STARTS, check_start
+from mjregen.tasks.bodies import BODIES, as_robots, body_physics
 from mjregen.tasks.cache import LRUCache
 from mjregen.tasks.evaluation import (
     PopulationEvaluation,
@@ -35,21 +35,6 @@ from mjregen.tasks.starts import DEFAULT_STARTS
 
 if TYPE_CHECKING:  # the search layer hands a task its backend
     from mjregen.search.backends import Backend
-
-BODIES = {
-    "grid": "the grown grid is the robot (a 2D one moves in the x-z plane)",
-    "sheet": "a 2D pattern lies flat on the floor as one layer of voxels and walks in 3D "
-             "(the paper's 2D robots), for the 2D times, scored by the 2D rule",
-}
-
-
-def body_physics(physics: Physics, body: str) -> Physics:
-    """The physics robots of `body` walk in: `physics`, for a sheet with its unset settle
-    and measured times the paper's 2D ones (a sheet is a 3D robot, whose defaults are 3D's)."""
-    if body != "sheet":
-        return physics
-    settle, measured = physics.scene.timing(2)
-    return physics.replace(settle_time=settle, measured_time=measured)
 
 
 @dataclass(frozen=True)
@@ -134,9 +119,8 @@ class LocomotionTask:
         return body_physics(self.physics, self.body)
 
     def robots(self, grids: np.ndarray) -> np.ndarray:
-        """The robots of grown grids ``(P, *grid)``: the grids, or (sheet) the patterns laid
-        flat, int8 ``(P, X, Y, 3)``."""
-        return lay_flat(grids) if self.body == "sheet" else grids
+        """The robots of grown grids ``(P, *grid)`` (`as_robots`)."""
+        return as_robots(grids, self.body)
 
     def evaluate(self, genomes: np.ndarray, backend: Backend) -> PopulationEvaluation:
         """Score a population of genomes ``(P, G)``."""

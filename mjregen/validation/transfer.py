@@ -85,7 +85,7 @@ def measure_transfer(robot: Robot, *, name: str = "robot", starts: int = 10,
                      engine: PaperEngine | None = None,
                      physics: Physics | None = None) -> Transfer:
     """Walk `robot` every way `Transfer` lists, with `physics` (None = the default; a sheet
-    of a 2D run: `mjregen.tasks.locomotion.body_physics`), the engine for the same settle
+    of a 2D run: `mjregen.tasks.bodies.body_physics`), the engine for the same settle
     and measured times."""
     physics = physics or Physics()
 

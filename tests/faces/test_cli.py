@@ -284,3 +284,26 @@ def test_robot_commands_reject_bad_files(tmp_path, capsys, command):
 def test_walk_refuses_several_exact_starts(capsys):
     assert main(["walk", WALKER, "--start-shift", "0", "--starts", "3"]) == 1
     assert "every start is the exact start" in capsys.readouterr().err
+
+
+def test_walk_a_pattern_or_its_sheet_as_the_paper_2d_robot(tmp_path, capsys):
+    from mjregen.grid import lay_flat
+    from mjregen.physics.simulation import simulate
+
+    pattern = np.zeros((5, 5), dtype=np.int8)
+    pattern[1:4, 1:4] = 3
+    pattern[2, 1:4] = 4
+    np.save(tmp_path / "pattern.npy", pattern)
+    np.save(tmp_path / "sheet.npy", lay_flat(pattern))
+    reports = []
+    for name in ("pattern.npy", "sheet.npy"):
+        assert main(["walk", str(tmp_path / name), "--body", "sheet", "--duration", "0.05",
+                     "--json"]) == 0
+        reports.append(json.loads(capsys.readouterr().out))
+    expected = simulate(lay_flat(pattern), physics=Physics().replace(settle_time=1.0),
+                        duration=0.05)
+    for report in reports:  # the 2D times and the 2D rule: the fitness is the distance
+        assert report["distance"] == expected.distance == report["fitness"]
+        assert report["sim_time"] == pytest.approx(1.05, abs=1e-4)  # whole steps
+    assert main(["walk", WALKER, "--body", "sheet"]) == 1
+    assert "is not a sheet: a 3D grid of" in capsys.readouterr().err

@@ -1,0 +1,35 @@
+"""How a grown grid becomes the robot that walks (torch-free: the `walk` command uses it).
+
+A 3D NCA's grid is its robot. A 2D NCA's pattern is either a robot in the x-z plane ("grid")
+or, as in the paper's code, which writes the grown pattern into Voxelyze as one layer
+(``Z_Voxels`` 1), a sheet lying flat on the floor and walking in 3D ("sheet"), for the 2D
+times (settle 1.0 s, 0.25 s measured) and scored by the 2D rule (the distance).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from mjregen.grid import lay_flat
+from mjregen.physics.params import Physics
+
+BODIES = {
+    "grid": "the grown grid is the robot (a 2D one moves in the x-z plane)",
+    "sheet": "a 2D pattern lies flat on the floor as one layer of voxels and walks in 3D "
+             "(the paper's 2D robots), for the 2D times, scored by the 2D rule",
+}
+
+
+def as_robots(grids: np.ndarray, body: str) -> np.ndarray:
+    """The robots of grown grids int8 ``(P, *grid)``: the grids themselves, or (sheet) the
+    patterns laid flat, int8 ``(P, X, Y, 3)``."""
+    return lay_flat(grids) if body == "sheet" else grids
+
+
+def body_physics(physics: Physics, body: str) -> Physics:
+    """The physics robots of `body` walk in: `physics`, for a sheet with its unset settle
+    and measured times the paper's 2D ones (a sheet is a 3D robot, whose defaults are 3D's)."""
+    if body != "sheet":
+        return physics
+    settle, measured = physics.scene.timing(2)
+    return physics.replace(settle_time=settle, measured_time=measured)
