@@ -180,13 +180,14 @@ def _check_walk_request(args: argparse.Namespace, robot: Robot) -> None:
 def _walk(args: argparse.Namespace) -> int:
     from mjregen.fileio import atomic_open
     from mjregen.physics.simulation import simulate_starts
-    from mjregen.tasks.bodies import body_physics
     from mjregen.tasks.fitness import locomotion_fitness
 
     robot = Robot.load(args.robot)
     _check_walk_request(args, robot)
     physics, rule = physics_from_args(args), None
     if args.body == "sheet":
+        from mjregen.tasks.bodies import body_physics
+
         robot, physics, rule = _as_sheet(args.robot, robot), body_physics(physics, "sheet"), 2
     record = args.trajectory is not None
     start_seed = args.start_seed or 0
