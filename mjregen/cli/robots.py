@@ -131,11 +131,7 @@ def add_walk(subparsers: argparse._SubParsersAction) -> None:
     )
     parser.add_argument("robot", type=Path, help="robot file (.npy)")
     add_physics_arguments(parser)
-    parser.add_argument("--body", choices=("grid", "sheet"),
-                        help="'sheet': walk a 2D pattern (or a 2D run's sheet) as the paper's "
-                             "2D robot: laid flat on the floor as one layer, for the 2D times "
-                             "unless --settle/--duration, scored by its distance (default "
-                             "'grid': the file's grid as it is)")
+    add_body_argument(parser)
     parser.add_argument("--starts", type=starts_count, metavar="K",
                         help="walk from K starts (0 .. K-1) and report their mean, min and "
                              "each distance (default 1)")
@@ -184,11 +180,7 @@ def _walk(args: argparse.Namespace) -> int:
 
     robot = Robot.load(args.robot)
     _check_walk_request(args, robot)
-    physics, rule = physics_from_args(args), None
-    if args.body == "sheet":
-        from mjregen.tasks.bodies import body_physics
-
-        robot, physics, rule = _as_sheet(args.robot, robot), body_physics(physics, "sheet"), 2
+    robot, physics, rule = with_body(args, robot, physics_from_args(args))
     record = args.trajectory is not None
     start_seed = args.start_seed or 0
     checked = None
@@ -233,19 +225,33 @@ def _walk(args: argparse.Namespace) -> int:
     return 0
 
 
-def _as_sheet(path: Path, robot: Robot) -> Robot:
-    """`robot` as the paper's 2D robot: a 2D pattern laid flat, or a sheet as it is.
+def add_body_argument(parser: argparse.ArgumentParser) -> None:
+    """--body of the commands on one robot file."""
+    parser.add_argument("--body", choices=("grid", "sheet"),
+                        help="'sheet': a 2D pattern (or a 2D run's sheet) as the paper's 2D "
+                             "robot, laid flat on the floor as one layer, with the 2D times "
+                             "(settle 1 s, walk 0.25 s) unless --settle/--duration and the 2D "
+                             "fitness, its distance (default 'grid': the file's grid as it is)")
+
+
+def with_body(args: argparse.Namespace, robot: Robot, physics) -> tuple:
+    """(robot, physics, fitness rule) of ``args.body``: unchanged with the grid's own rule
+    (None), or the paper's 2D robot: a 2D pattern laid flat (a sheet as it is), walked for
+    the 2D times, scored by rule 2.
 
     Raises:
       MjregenError: a 3D grid that is not one layer at z = 1 of three.
     """
-    grid = robot.grid
+    if args.body != "sheet":
+        return robot, physics, None
+    from mjregen.tasks.bodies import body_physics
+
     if robot.dim == 2:
-        return Robot(lay_flat(grid))
-    if grid.shape[2] != 3:
-        raise MjregenError(f"{path} is not a sheet: a 3D grid of {grid.shape[2]} layers "
-                           "(a sheet has one voxel layer between two empty ones)")
-    return robot
+        robot = Robot(lay_flat(robot.grid))
+    elif robot.grid.shape[2] != 3:
+        raise MjregenError(f"{args.robot} is not a sheet: a 3D grid of {robot.grid.shape[2]} "
+                           "layers (a sheet has one voxel layer between two empty ones)")
+    return robot, body_physics(physics, "sheet"), 2
 
 
 def _walk_report(args: argparse.Namespace, result, results: list, rule: int | None) -> dict:
@@ -326,6 +332,7 @@ def add_export(subparsers: argparse._SubParsersAction) -> None:
     )
     parser.add_argument("robot", type=Path, help="robot file (.npy)")
     add_physics_choice(parser)
+    add_body_argument(parser)
     parser.add_argument("--settle", type=float,
                         help="s without actuation before the muscles start (default: the "
                              "paper's, 3D 0.05, 2D 1.0)")
@@ -348,7 +355,8 @@ def _export(args: argparse.Namespace) -> int:
     robot = Robot.load(args.robot)
     if robot.is_empty:
         raise MjregenError(f"{args.robot} holds an empty robot: nothing to export")
-    compiled = compile_robot(robot, physics=physics_from_args(args),
+    robot, physics, _ = with_body(args, robot, physics_from_args(args))
+    compiled = compile_robot(robot, physics=physics,
                              starts=range(args.starts or 1), start_seed=args.start_seed or 0)
     with atomic_open(args.out, "w", overwrite=args.force) as handle:
         handle.write(compiled.to_xml())
@@ -370,6 +378,7 @@ def add_render(subparsers: argparse._SubParsersAction) -> None:
         "--starts K` numbers them.",
     )
     parser.add_argument("robot", type=Path, help="robot file (.npy)")
+    add_body_argument(parser)
     target = parser.add_mutually_exclusive_group(required=True)
     target.add_argument("--out", type=Path, help=".mp4 file to write")
     target.add_argument("--frames", type=Path, help="folder for PNG frames")
@@ -402,7 +411,8 @@ def _render(args: argparse.Namespace) -> int:
     except ValueError as error:
         raise MjregenError(str(error)) from None
     start = args.start or 0
-    compiled = compile_robot(robot, physics=physics_from_args(args), starts=(start,),
+    robot, physics, _ = with_body(args, robot, physics_from_args(args))
+    compiled = compile_robot(robot, physics=physics, starts=(start,),
                              start_seed=args.start_seed or 0)
     try:
         walk = record_walk(compiled, duration=args.duration, fps=args.fps, slowdown=args.slowdown,

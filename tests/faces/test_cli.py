@@ -307,3 +307,12 @@ def test_walk_a_pattern_or_its_sheet_as_the_paper_2d_robot(tmp_path, capsys):
         assert report["sim_time"] == pytest.approx(1.05, abs=1e-4)  # whole steps
     assert main(["walk", WALKER, "--body", "sheet"]) == 1
     assert "is not a sheet: a 3D grid of" in capsys.readouterr().err
+    # the exported model of the pattern is the sheet's, its muscles starting after 1 s
+    xml = tmp_path / "sheet.xml"
+    assert main(["export", str(tmp_path / "pattern.npy"), "--body", "sheet", "--out",
+                 str(xml)]) == 0
+    import mujoco
+
+    model = mujoco.MjModel.from_xml_path(str(xml))
+    assert model.nbody == 1 + np.count_nonzero(pattern) and model.nq == 7 * model.nbody - 7
+    assert 'key="start" value="1.0"' in xml.read_text()
