@@ -43,10 +43,10 @@ from mjregen.tasks.bodies import body_physics
 
 DEFAULT_ROOT = Path("runs") / "results"
 NETS = ("ff", "lstm")
-# Rough CPU-s per evaluation with the default physics, from real evolutions on two cores
-# (docs/performance.md): 3D 0.25-0.45 s (the paper's GA, population 50-100), 2D about a
-# third of that; for planning only.
-CPU_PER_EVALUATION = {2: 0.15, 3: 0.4}
+# Rough CPU-s per evaluation with the default physics, from real evolutions at the paper's
+# populations: 3D 0.56 (docs/performance.md), 2D 0.07 (sheets and x-z plane robots alike,
+# 4 generations of 300); for planning only.
+CPU_PER_EVALUATION = {2: 0.07, 3: 0.56}
 
 
 @dataclass(frozen=True)
