@@ -5,7 +5,7 @@ evolution.
         [--scene stepper=mujoco --scene timestep_rule=stiffest_bond]
         [--scene pipeline=mujoco --scene contact_shape=point]
         [--backends serial process thread] [--json out.json]
-    python benchmarks/evolution.py short-run [--dim 3] [--pop 100] [--gens 5]
+    python benchmarks/evolution.py short-run [--dim 3] [--body grid] [--pop 100] [--gens 5]
         [--out runs/short3d] [--json out.json]
     python benchmarks/evolution.py profile [--pop 12] [--seed 0] [--json out.json]
     python benchmarks/evolution.py compare --before DIR [--rounds 2] [--gens 3]
@@ -121,7 +121,7 @@ def short_run(args: argparse.Namespace) -> dict:
     time per generation."""
     preset = PRESETS[f"{args.dim}d"]
     ga = preset.scaled(args.pop).with_overrides(generations=args.gens)
-    task = SizeRecordingTask(nca=NCAConfig(dim=args.dim, kind="ff"))
+    task = SizeRecordingTask(nca=NCAConfig(dim=args.dim, kind="ff"), body=args.body)
     rows = []
     wall = time.perf_counter()
     with make_backend("process", workers=2) as backend:
@@ -139,7 +139,7 @@ def short_run(args: argparse.Namespace) -> dict:
               "evaluations": evaluations, "wall_s": wall,
               "evaluations_per_s": evaluations / sum(per_generation),
               "projected_paper_run_h": float(np.mean(per_generation)) * preset.generations / 3600,
-              "dim": args.dim}
+              "dim": args.dim, "body": args.body}
     print(f"{evaluations} evaluations in {sum(per_generation):.1f} s "
           f"({result['evaluations_per_s']:.2f} per s); best per generation: "
           + " ".join(f"{b:.3f}" for b in result["best"])
@@ -376,6 +376,9 @@ def main() -> None:
     parser.add_argument("--dim", type=int, choices=(2, 3), default=3,
                         help="short-run: the robots' dimension (the paper's GA of that "
                              "dimension)")
+    parser.add_argument("--body", choices=("grid", "sheet"), default="grid",
+                        help="short-run: how a grown grid becomes the robot (--dim 2 sheet: "
+                             "the paper's 2D robots; mjregen.tasks.bodies)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--out", default="runs/short3d")
     parser.add_argument("--bonds", choices=("beam", "tendons"), default=None,
