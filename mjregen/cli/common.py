@@ -144,6 +144,15 @@ def add_physics_arguments(parser: argparse.ArgumentParser) -> None:
                              "else at least 1e-5, what the model's keyframe keeps)")
 
 
+def add_body_argument(parser: argparse.ArgumentParser) -> None:
+    """--body of the commands on one robot file."""
+    parser.add_argument("--body", choices=("grid", "sheet"),
+                        help="'sheet': a 2D pattern (or a 2D run's sheet) as the paper's 2D "
+                             "robot, laid flat on the floor as one layer, with the 2D times "
+                             "(settle 1 s, walk 0.25 s) unless --settle/--duration and the 2D "
+                             "fitness, its distance (default 'grid': the file's grid as it is)")
+
+
 def physics_from_args(args: argparse.Namespace):
     """The `Physics` that --physics, --bonds, --timestep-rule, --settle and --start-shift
     describe, with --duration checked too (before any work starts)."""

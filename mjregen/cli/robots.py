@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from mjregen.cli.common import (
+    add_body_argument,
     add_physics_arguments,
     add_physics_choice,
     material_counts,
@@ -223,15 +224,6 @@ def _walk(args: argparse.Namespace) -> int:
     if checked is not None:
         print(_starts_text(checked))
     return 0
-
-
-def add_body_argument(parser: argparse.ArgumentParser) -> None:
-    """--body of the commands on one robot file."""
-    parser.add_argument("--body", choices=("grid", "sheet"),
-                        help="'sheet': a 2D pattern (or a 2D run's sheet) as the paper's 2D "
-                             "robot, laid flat on the floor as one layer, with the 2D times "
-                             "(settle 1 s, walk 0.25 s) unless --settle/--duration and the 2D "
-                             "fitness, its distance (default 'grid': the file's grid as it is)")
 
 
 def with_body(args: argparse.Namespace, robot: Robot, physics) -> tuple:
