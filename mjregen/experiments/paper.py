@@ -4,11 +4,11 @@ Evolution conditions (`CONDITIONS`): 2D and 3D robots, each grown by a feed-forw
 ("ff") and an LSTM ("lstm") NCA, with the paper's GA (`mjregen.search.ga.PRESETS` "2d"/"3d"),
 its fitness (`mjregen.tasks.locomotion.LocomotionTask`) and its run counts (10 runs in 2D, 24 in
 3D). A 2D robot is the paper's: the grown pattern laid flat on the floor as one layer of voxels,
-walked in 3D (body "sheet"). The regrowth experiment: three diverse evolved 3D walkers (`mjregen.experiments.walkers`), the
-paper's cut (`mjregen.tasks.regrowth.paper_cut`, grid x-indices 0-3 of 9 removed), a regrowth NCA
-evolved with the paper's regeneration GA (`PRESETS["regen"]`), then the locomotion
-recovery of the original, damaged and regrown robot (`mjregen.experiments.recovery`); its
-jobs are `mjregen.experiments.regrowth.regen_jobs`. Reading run folders: `read_run`,
+walked in 3D (body "sheet"). The regrowth experiment: three diverse evolved 3D walkers
+(`mjregen.experiments.walkers`), the paper's cut (`mjregen.tasks.regrowth.paper_cut`, grid
+x-indices 0-3 of 9 removed), a regrowth NCA evolved with the paper's regeneration GA
+(`PRESETS["regen"]`), then the locomotion recovery of the original, damaged and regrown
+robot (`mjregen.experiments.recovery`); its jobs are `mjregen.experiments.regrowth.regen_jobs`. Reading run folders: `read_run`,
 `list_runs`, `best_run`, `list_regen_runs`.
 
 A `Scale` says how much of that is run: "paper" is the paper's, "quick" a named reduced
@@ -251,7 +251,8 @@ def run_evolution_job(job: EvolutionJob, *, workers: int = 1, progress: bool = T
     with backend:
         return evolve_locomotion(out=job.out, nca=job.condition.nca, ga=job.ga, seed=job.seed,
                                  backend=backend, physics=job.physics, duration=job.duration,
-                                 body=job.condition.body, resume=(job.out / "config.json").is_file(), progress=progress)
+                                 body=job.condition.body,
+                                 resume=(job.out / "config.json").is_file(), progress=progress)
 
 
 @dataclass(frozen=True)
