@@ -8,8 +8,9 @@ walked in 3D (body "sheet"). The regrowth experiment: three diverse evolved 3D w
 (`mjregen.experiments.walkers`), the paper's cut (`mjregen.tasks.regrowth.paper_cut`, grid
 x-indices 0-3 of 9 removed), a regrowth NCA evolved with the paper's regeneration GA
 (`PRESETS["regen"]`), then the locomotion recovery of the original, damaged and regrown
-robot (`mjregen.experiments.recovery`); its jobs are `mjregen.experiments.regrowth.regen_jobs`. Reading run folders: `read_run`,
-`list_runs`, `best_run`, `list_regen_runs`.
+robot (`mjregen.experiments.recovery`); its jobs are
+`mjregen.experiments.regrowth.regen_jobs`. Reading run folders: `read_run`, `list_runs`,
+`best_run`, `list_regen_runs`.
 
 A `Scale` says how much of that is run: "paper" is the paper's, "quick" a named reduced
 scale that fits about an hour on two cores, "smoke" seconds of work for tests. Every number
