@@ -72,7 +72,7 @@ def robots() -> dict[str, Robot]:
     slab[:, :, 0] = np.where(np.arange(7)[:, None] % 2 == 0, 3, 4)  # legs: red/green
     slab[:, :, 3] = 4
     out["slab_3d_112"] = Robot.from_body(slab)
-    out["sheet_2d_5x5"] = Robot.from_body(rng.choice([1, 2, 3, 4], size=(5, 5)).astype(np.int8))
+    out["square_2d_5x5"] = Robot.from_body(rng.choice([1, 2, 3, 4], size=(5, 5)).astype(np.int8))
     for path in sorted((ROOT / "assets" / "nca").glob("walker_3d_*.npy")):
         out[f"evolved_{path.stem}"] = Robot.load(path)
     for i, robot in enumerate(initial_population(RANDOM_ROBOTS)):
@@ -161,7 +161,7 @@ def markdown(report: dict, models: list[str]) -> str:
 RANDOM_ROBOTS = 6  # robots of a random initial 3D population in the report
 DOC_ROBOTS = {"paper_tripod": "tripod", "paper_biped": "biped", "paper_multiped": "multiped",
               "block_7x7x7_soft": "7×7×7 all soft", "block_7x7x7_muscle": "7×7×7 soft and muscle",
-              "slab_3d_112": "112-voxel slab, no hard", "sheet_2d_5x5": "2D 5×5 sheet",
+              "slab_3d_112": "112-voxel slab, no hard", "square_2d_5x5": "2D 5×5 square (x-z plane)",
               **{f"random_3d_{i}": f"random initial robot {i}" for i in range(RANDOM_ROBOTS)}}
 ENGINE_DT_FRACTION = 0.9  # the paper's DtFrac: step = 0.9 / (2π sqrt(k/m)), k = E L
 
