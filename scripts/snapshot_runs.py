@@ -6,7 +6,8 @@ a finished one. Of a GA run ``runs/results/<condition>/seed_<n>`` (an evolution,
 regrowth ``regen_<walker>_<net>/seed_<n>``): config.json, metrics.csv, every generation's best
 robot (best/gen_NNNN.npy), the best generation's NCA (best/gen_NNNN.npz; `best_ncas`), a
 regrowth's recovery files (recovery.json, recovery.md, regrowth.npz, original/damaged/
-regrown.npy) and, while the run is unfinished, checkpoint.npz. A finished run's record has no
+regrown.npy) and, while the run is unfinished, checkpoint.npz and the last finished
+generation's NCA (a resume checks that it is there). A finished run's record has no
 checkpoint: resuming it returns its summary at once (`mjregen.search.runs.run_evolution`). Of
 the regrowth experiment's walkers (``runs/results/walkers``): walkers.json and their NCAs and
 robots. Of a quality-diversity comparison's run (``runs/qd/<method>/seed_<n>``, a folder with
@@ -150,12 +151,14 @@ def snapshot(run: Path, destination: Path = DESTINATION) -> Path:
     if not info.generations_done:
         raise FileNotFoundError(f"{run} has no generation in metrics.csv: nothing to keep")
     names = ["config.json", "metrics.csv"]
+    ncas = best_ncas(info)
     if not info.complete:
         if not (run / "checkpoint.npz").is_file():
             raise FileNotFoundError(f"{run} has no checkpoint.npz: nothing to resume")
         names.append("checkpoint.npz")
+        last, _ = info.best_files(info.generations_done - 1)  # a resume checks it is there
+        ncas = sorted({*ncas, last})
     names += [name for name in RECOVERY_FILES if (run / name).is_file()]
-    ncas = best_ncas(info)
 
     def fill(staging: Path) -> None:
         (staging / "best").mkdir()

@@ -112,13 +112,14 @@ def test_tiny_run_resumes_and_matches_its_printed_command(tmp_path):
 def test_a_snapshot_of_an_unfinished_run_resumes_to_the_uninterrupted_run(tmp_path):
     job, = ex.evolution_jobs(SMOKE, root=tmp_path / "killed", conditions=["2d_ff"], runs=1,
                               generations=4)
-    kill_after(job, 1)
+    kill_after(job, 2)
     saved = snapshot_runs.snapshot(job.out, tmp_path / "records")
     assert saved == tmp_path / "records" / "2d_ff" / "seed_0"
     assert (saved / "checkpoint.npz").is_file()
     kept = sorted(p.name for p in (saved / "best").iterdir())
-    best_npz = ex.read_run(job.out).best_files()[0].name
-    assert kept == sorted(["gen_0000.npy", "gen_0001.npy", best_npz])  # one NCA: the best's
+    assert ex.read_run(job.out).best_generation == 1  # not the last: both NCAs are kept
+    assert kept == ["gen_0000.npy", "gen_0001.npy", "gen_0001.npz", "gen_0002.npy",
+                    "gen_0002.npz"]  # the best's NCA, and the last one's, which a resume reads
     # the snapshot, copied to a fresh machine's results folder, resumes to the uninterrupted run
     fresh, = ex.evolution_jobs(SMOKE, root=tmp_path / "fresh", conditions=["2d_ff"], runs=1,
                               generations=4)
