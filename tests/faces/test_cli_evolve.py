@@ -71,10 +71,12 @@ def test_sigkill_mid_run_then_resume_equals_an_uninterrupted_run(tmp_path):
     assert best_column(killed) == best_column(full)
 
 
-def test_process_and_serial_backends_give_the_same_run(tmp_path):
+@pytest.mark.parametrize("body", ["grid", "sheet"])
+def test_process_and_serial_backends_give_the_same_run(tmp_path, body):
     serial, process = tmp_path / "serial", tmp_path / "process"
-    assert main(["evolve", *TINY, "--gens", "2", "--backend", "serial", "--out", str(serial)]) == 0
-    assert main(["evolve", *TINY, "--gens", "2", "--backend", "process", "--workers", "2",
+    flags = [*TINY, "--body", body, "--gens", "2"]
+    assert main(["evolve", *flags, "--backend", "serial", "--out", str(serial)]) == 0
+    assert main(["evolve", *flags, "--backend", "process", "--workers", "2",
                  "--out", str(process)]) == 0
     assert best_column(serial) == best_column(process)
 
