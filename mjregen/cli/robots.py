@@ -22,8 +22,8 @@ from mjregen.cli.common import (
     starts_count,
     workers,
 )
-from mjregen.errors import MjregenError, OutputExistsError
-from mjregen.grid import Robot, lay_flat
+from mjregen.errors import InvalidGridError, MjregenError, OutputExistsError
+from mjregen.grid import Robot
 
 
 def add_grow(subparsers: argparse._SubParsersAction) -> None:
@@ -236,13 +236,12 @@ def with_body(args: argparse.Namespace, robot: Robot, physics) -> tuple:
     """
     if args.body != "sheet":
         return robot, physics, None
-    from mjregen.tasks.bodies import body_physics
+    from mjregen.tasks.bodies import body_physics, body_robot
 
-    if robot.dim == 2:
-        robot = Robot(lay_flat(robot.grid))
-    elif robot.grid.shape[2] != 3:
-        raise MjregenError(f"{args.robot} is not a sheet: a 3D grid of {robot.grid.shape[2]} "
-                           "layers (a sheet has one voxel layer between two empty ones)")
+    try:
+        robot = body_robot(robot, "sheet")
+    except InvalidGridError as error:
+        raise MjregenError(f"{args.robot} is {error}") from None
     return robot, body_physics(physics, "sheet"), 2
 
 

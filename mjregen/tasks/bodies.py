@@ -10,7 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from mjregen.grid import lay_flat
+from mjregen.errors import InvalidGridError
+from mjregen.grid import Robot, lay_flat
 from mjregen.physics.params import Physics
 
 BODIES = {
@@ -24,6 +25,24 @@ def as_robots(grids: np.ndarray, body: str) -> np.ndarray:
     """The robots of grown grids int8 ``(P, *grid)``: the grids themselves, or (sheet) the
     patterns laid flat, int8 ``(P, X, Y, 3)``."""
     return lay_flat(grids) if body == "sheet" else grids
+
+
+def body_robot(robot: Robot, body: str) -> Robot:
+    """One robot file's robot of `body`: itself ("grid"), or (sheet) a 2D pattern laid flat
+    or a sheet as it is.
+
+    Raises:
+      InvalidGridError: a sheet asked of a 3D grid that is not one voxel layer between two
+        empty ones.
+    """
+    if body != "sheet":
+        return robot
+    if robot.dim == 2:
+        return Robot(lay_flat(robot.grid))
+    if robot.shape[2] != 3:
+        raise InvalidGridError(f"not a sheet: a 3D grid of {robot.shape[2]} layers (a sheet "
+                               "has one voxel layer between two empty ones)")
+    return robot
 
 
 def body_physics(physics: Physics, body: str) -> Physics:
