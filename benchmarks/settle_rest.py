@@ -35,17 +35,18 @@ from mjregen.growth.networks import random_genomes
 from mjregen.physics import Physics
 from mjregen.physics.compile import compile_robot
 from mjregen.physics.simulation import simulation_of, walk
-from mjregen.tasks.bodies import as_robots, body_physics
+from mjregen.tasks.bodies import body_physics, body_robot
 
 
-def initial_robots(count: int, seed: int) -> list[Robot]:
-    """The non-empty robots of `count` initial genomes of each 2D network (seed `seed`)."""
-    robots = []
+def initial_patterns(count: int, seed: int) -> list[tuple[str, np.ndarray]]:
+    """("<network> <index>", grid) of the non-empty patterns of `count` initial genomes of
+    each 2D network (seed `seed`)."""
+    found = []
     for kind in ("ff", "lstm"):
         config = NCAConfig(dim=2, kind=kind)
         grids = grow(config, random_genomes(config, count, seed=seed)).grids
-        robots += [Robot(grid) for grid in grids if np.any(grid)]
-    return robots
+        found += [(f"{kind} {i}", grid) for i, grid in enumerate(grids) if np.any(grid)]
+    return found
 
 
 def max_speeds(qvel: np.ndarray, voxel_size: float, dim: int) -> tuple[float, float]:
@@ -172,10 +173,9 @@ def main(argv: list[str] | None = None) -> int:
     given = {str(path): Robot.load(path) for path in args.files}
     if any(robot.dim != 2 for robot in given.values()):
         parser.error("the robots given must be 2D (the 3D settle is 0.05 s)")
-    robots = initial_robots(args.robots, args.seed)
+    robots = [Robot(grid) for _, grid in initial_patterns(args.robots, args.seed)]
     physics = body_physics(Physics(), args.body)
-    bodies = [Robot(as_robots(np.asarray(r.grid)[None], args.body)[0])
-              for r in [*robots, *given.values()]]
+    bodies = [body_robot(r, args.body) for r in [*robots, *given.values()]]
     with ProcessPoolExecutor(args.workers) as pool:
         rows = list(pool.map(measure, [(r, physics, args.threshold, args.check)
                                        for r in bodies]))

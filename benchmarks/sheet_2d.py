@@ -24,25 +24,15 @@ from pathlib import Path
 
 import numpy as np
 
+from settle_rest import initial_patterns  # the sibling benchmark, beside this script
+
 from mjregen.grid import Robot, lay_flat
-from mjregen.growth.nca import NCAConfig, grow
-from mjregen.growth.networks import random_genomes
 from mjregen.physics import Physics
 from mjregen.physics.simulation import simulate
 from mjregen.tasks.bodies import body_physics
-from mjregen.validation.engine import PaperEngine
+from mjregen.validation.engine import PAPER_DT_FRACTION, PaperEngine
 
 MOVES = 0.01  # voxel lengths: a robot that moves less in both is left out of the ratios
-
-
-def initial_patterns(count: int, seed: int) -> list[tuple[str, np.ndarray]]:
-    """The non-empty patterns of `count` initial genomes of each 2D network."""
-    found = []
-    for kind in ("ff", "lstm"):
-        config = NCAConfig(dim=2, kind=kind)
-        grids = grow(config, random_genomes(config, count, seed=seed)).grids
-        found += [(f"{kind} {i}", grid) for i, grid in enumerate(grids) if np.any(grid)]
-    return found
 
 
 def walk_three_ways(name: str, pattern: np.ndarray, engine: PaperEngine) -> dict:
@@ -57,7 +47,7 @@ def walk_three_ways(name: str, pattern: np.ndarray, engine: PaperEngine) -> dict
     plane = simulate(Robot(pattern))
     plane_cpu = time.process_time() - start
     times = physics.scene.timing(3)
-    answer = engine.run_window(sheet.grid, dt_fraction=0.9, stop=sum(times),
+    answer = engine.run_window(sheet.grid, dt_fraction=PAPER_DT_FRACTION, stop=sum(times),
                                measure_from=times[0])
     return {"name": name, "voxels": sheet.n_voxels, "sheet": mjregen.distance,
             "sheet_stable": mjregen.stable, "sheet_cpu_s": mjregen_cpu,

@@ -113,11 +113,10 @@ def measure(npz: Path, run_config: dict, expected_robot: Path | None = None) -> 
       MjregenError: the run's config has no physics description, or the grown robot differs
         from `expected_robot` (the run's own .npy).
     """
-    from mjregen.grid import lay_flat
     from mjregen.growth.checkpoint import load_nca
     from mjregen.physics import Physics
+    from mjregen.tasks.bodies import body_physics, body_robot
     from mjregen.tasks.evaluation import RobotJob, evaluate_robot
-    from mjregen.tasks.bodies import body_physics
 
     task = run_config.get("task", {})
     if not isinstance(task.get("physics"), dict):
@@ -127,9 +126,7 @@ def measure(npz: Path, run_config: dict, expected_robot: Path | None = None) -> 
     physics = body_physics(stored, body)
     duration = task.get("duration")
     nca, _ = load_nca(npz)
-    robot = nca.grow().robot()
-    if body == "sheet":
-        robot = Robot(lay_flat(robot.grid))
+    robot = body_robot(nca.grow().robot(), body)
     if expected_robot is not None and Robot.load(expected_robot) != robot:
         raise MjregenError(f"{npz} grows another robot than {expected_robot} with this code")
     starts, start_seed = task.get("starts", 1), task.get("start_seed", 0)
