@@ -95,8 +95,8 @@ def test_shipped_physics_descriptions_migrate_to_what_they_were_evaluated_with(k
     old = MANIFEST[key]["evaluation"]["physics"]
     if "format" in old:  # re-shipped since: format 4, before the start shift (exact starts)
         migrated = migrate_physics(old)
-        assert migrated["scene"] == {**old["scene"], "start_shift": 0.0}
-        assert migrated["pipeline"] == old["pipeline"] and migrated["format"] == 5
+        assert migrated["scene"] == {**old["scene"], "start_shift": 0.0, "settle_rest": None}
+        assert migrated["pipeline"] == old["pipeline"] and migrated["format"] == PHYSICS_FORMAT
         return
     scene = old["scene"]
     assert scene["contact_shape"] == "engine" and "bond_element" not in scene
@@ -178,7 +178,7 @@ def test_shipped_walkers_keep_their_walk_from_fresh_starts_and_turned(name):
 
     path, record = WALKERS[name]
     robot = Robot.load(path)
-    assert record["physics"] == Physics().to_dict() and record["transfers"]
+    assert Physics.from_dict(record["physics"]) == Physics() and record["transfers"]
     assert record["rule"] == TRANSFER_RULE
     distance = record["distance"]
     assert distance == pytest.approx(np.mean(record["distances"]), rel=1e-12)

@@ -130,8 +130,8 @@ def add_physics_choice(parser: argparse.ArgumentParser) -> None:
 
 
 def add_physics_arguments(parser: argparse.ArgumentParser) -> None:
-    """--physics (the default model or the paper-engine preset), --settle, --duration and
-    --start-shift."""
+    """--physics (the default model or the paper-engine preset), --settle, --duration,
+    --start-shift and --settle-rest."""
     add_physics_choice(parser)
     parser.add_argument("--settle", type=float,
                         help="s without actuation before measuring (default: the paper's, 3D 0.05, 2D 1.0)")
@@ -142,6 +142,11 @@ def add_physics_arguments(parser: argparse.ArgumentParser) -> None:
                              "offset of this standard deviation, so that no body balances on "
                              "an exact symmetry (default 1e-4; 0 starts it exactly on the grid; "
                              "else at least 1e-5, what the model's keyframe keeps)")
+    parser.add_argument("--settle-rest", type=float, metavar="R",
+                        help="1/s: the settle ends once every voxel has moved slower than R "
+                             "voxel lengths/s and turned slower than R rad/s for 5 ms, and the "
+                             "robot is held still until the muscles start (default: 1e-6 for "
+                             "sheets, else the full settle; 0: the full settle)")
 
 
 def add_body_argument(parser: argparse.ArgumentParser) -> None:
@@ -154,8 +159,8 @@ def add_body_argument(parser: argparse.ArgumentParser) -> None:
 
 
 def physics_from_args(args: argparse.Namespace):
-    """The `Physics` that --physics, --bonds, --timestep-rule, --settle and --start-shift
-    describe, with --duration checked too (before any work starts)."""
+    """The `Physics` that --physics, --bonds, --timestep-rule, --settle, --start-shift and
+    --settle-rest describe, with --duration checked too (before any work starts)."""
     from mjregen.physics import Physics, box_physics, paper_physics, sphere_physics
 
     presets = {"paper": paper_physics, "sphere": sphere_physics, "box": box_physics}
@@ -171,7 +176,8 @@ def physics_from_args(args: argparse.Namespace):
     if duration is not None and not (math.isfinite(duration) and duration >= 0.0):
         raise MjregenError(f"--duration must be a finite time >= 0 s, got {duration!r}")
     for flag, field, value in (("--settle", "settle_time", args.settle),
-                               ("--start-shift", "start_shift", getattr(args, "start_shift", None))):
+                               ("--start-shift", "start_shift", getattr(args, "start_shift", None)),
+                               ("--settle-rest", "settle_rest", getattr(args, "settle_rest", None))):
         if value is not None:
             try:
                 physics = physics.replace(**{field: value})

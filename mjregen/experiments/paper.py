@@ -45,9 +45,9 @@ from mjregen.tasks.bodies import body_physics
 DEFAULT_ROOT = Path("runs") / "results"
 NETS = ("ff", "lstm")
 # Rough CPU-s per evaluation with the default physics, from real evolutions at the paper's
-# populations: 3D 0.56 (docs/performance.md), 2D 0.07 (sheets and x-z plane robots alike,
-# 4 generations of 300); for planning only.
-CPU_PER_EVALUATION = {2: 0.07, 3: 0.56}
+# populations: 3D 0.56 (docs/performance.md), 2D 0.02 (sheets, whose settle ends at rest:
+# 0.0165 over 4 generations of 300); for planning only.
+CPU_PER_EVALUATION = {2: 0.02, 3: 0.56}
 
 
 @dataclass(frozen=True)

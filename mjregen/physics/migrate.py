@@ -5,7 +5,8 @@ folders and asset manifests written before formats were recorded: one flat scene
 added later missing). Format 2: the same flat scene, complete. Format 3: the shared scene
 and one pipeline with its parameters. Format 4: the voxel pipeline's beam law and damping,
 friction stop rule, collision constants and exclusion, and drag law. Format 5: the scene's
-start shift (every voxel's seeded offset at the start). `migrate_physics` brings
+start shift (every voxel's seeded offset at the start). Format 6: the scene's settle rest
+(the settle ends once the robot is at rest). `migrate_physics` brings
 any format to `PHYSICS_FORMAT` step by step, stating what each step assumes, so that an old
 run resumes, and an old walker replays, with exactly the physics it was evolved with.
 """
@@ -16,7 +17,7 @@ import copy
 
 from mjregen.errors import PhysicsParameterError
 
-PHYSICS_FORMAT = 5
+PHYSICS_FORMAT = 6
 
 
 # format 1: one flat scene; a field missing from a description took the value below (the
@@ -110,7 +111,15 @@ def _format_4_to_5(description: dict) -> dict:
     return {**description, "scene": {**description["scene"], "start_shift": 0.0}}
 
 
-_STEPS = {1: _format_1_to_2, 2: _format_2_to_3, 3: _format_3_to_4, 4: _format_4_to_5}
+def _format_5_to_6(description: dict) -> dict:
+    """Format 5 -> 6: the settle rest unset ("the body decides", which for every robot but a
+    sheet is the full settle, what format 5 did; a sheet's task reads its format:
+    `mjregen.tasks.locomotion.LocomotionTask.from_config`)."""
+    return {**description, "scene": {**description["scene"], "settle_rest": None}}
+
+
+_STEPS = {1: _format_1_to_2, 2: _format_2_to_3, 3: _format_3_to_4, 4: _format_4_to_5,
+          5: _format_5_to_6}
 
 
 def migrate_physics(description: dict) -> dict:

@@ -34,7 +34,7 @@ from mjregen.physics.model import (
     voxel_drag,
     voxel_name,
 )
-from mjregen.physics.params import Physics
+from mjregen.physics.params import REST_WINDOW, Physics
 from mjregen.physics.pipelines import POINT_RADIUS
 from mjregen.physics.rounding import round_like_mjcf
 from mjregen.physics.tendons import BondTable
@@ -134,6 +134,8 @@ def plugin_config(layout: RobotLayout, physics: Physics, bonds: RobotBonds,
         "grid": _numbers(grid3), "collides": _numbers(layout.surface.astype(int)),
         "drag_linear": _numbers(drag_linear), "drag_rotational": _numbers(drag_rotational),
     }
+    if scene.rest_threshold > 0.0:
+        config["settle_rest"] = _numbers([scene.rest_threshold, REST_WINDOW])
     if beam:
         config.update(bond_stiffness=_numbers(beams.stiffness),
                       bond_axial_law=_numbers(beams.axial_law), bond_beta=_numbers(beams.beta))

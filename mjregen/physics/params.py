@@ -35,6 +35,7 @@ MAX_START_SHIFT = 0.1  # voxel lengths: beyond this a start is a deformed robot,
 # whose positions MJCF writes to 6 significant digits (steps of 1e-5 L for positions 1 to 10
 # voxel lengths from the origin), so smaller shifts would mostly be rounded away
 MIN_START_SHIFT = 1e-5
+REST_WINDOW = 0.005  # s every voxel stays below `Scene.settle_rest` before the settle ends
 
 
 @dataclass(frozen=True)
@@ -140,6 +141,13 @@ class Scene:
         (docs/transfer.md); 0 starts every voxel exactly at its grid position; between 0 and
         MIN_START_SHIFT (1e-5) is refused (the keyframe's 6 significant digits would round
         it away).
+      settle_rest: 1/s: the settle ends at rest, once every voxel has moved slower than
+        this many voxel lengths/s and turned slower than this many rad/s for REST_WINDOW
+        (5 ms); the robot is then held still (velocities zero, no force) until the muscles
+        start, which the voxel plugin does in the model itself, so plain MuJoCo holds it
+        too. Not a same-numbers option: the walk starts from the rest state without its
+        residual motion. 0 = the full settle; None = the robot's body decides
+        (`mjregen.tasks.bodies.body_physics`: 1e-6 for sheets, else 0). Voxel pipeline only.
     """
 
     voxel_size: float = 1e-3
@@ -153,6 +161,7 @@ class Scene:
     floor: bool = True
     timestep_safety: float = 0.75
     start_shift: float = DEFAULT_START_SHIFT
+    settle_rest: float | None = None
 
     def __post_init__(self) -> None:
         check_range("voxel_size", self.voxel_size, low=0.0)
@@ -172,8 +181,15 @@ class Scene:
                 f"start_shift {self.start_shift!r} voxel lengths is below {MIN_START_SHIFT:g}: "
                 "a start is a keyframe of the model, whose 6 significant digits would round "
                 "such a shift away; use 0 (the exact start) or at least that")
+        if self.settle_rest is not None:
+            check_range("settle_rest (1/s)", self.settle_rest, low=0.0, low_open=False)
         check_choice("waveform", self.waveform, WAVEFORMS)
         check_flag("floor", self.floor)
+
+    @property
+    def rest_threshold(self) -> float:
+        """1/s: the settle's rest threshold (`settle_rest`), 0 for the full settle."""
+        return self.settle_rest or 0.0
 
     def timing(self, dim: int) -> tuple[float, float]:
         """(settle_time, measured_time) in s for a `dim`-dimensional robot."""
@@ -203,6 +219,10 @@ class Physics:
         if not isinstance(self.pipeline, (VoxelPipeline, MujocoPipeline)):
             raise PhysicsParameterError(
                 f"pipeline must be VoxelPipeline or MujocoPipeline, got {type(self.pipeline)}")
+        if self.scene.rest_threshold > 0.0 and self.pipeline.name != "voxel":
+            raise PhysicsParameterError(
+                f"settle_rest {self.scene.settle_rest!r}: the settle's rest is the voxel "
+                f"plugin's; the {self.pipeline.name} pipeline settles for the full time (use 0)")
         object.__setattr__(self, "materials", MappingProxyType(dict(self.materials)))
 
     def __reduce__(self) -> tuple:

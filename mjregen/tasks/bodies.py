@@ -14,10 +14,16 @@ from mjregen.errors import InvalidGridError
 from mjregen.grid import Robot, lay_flat
 from mjregen.physics.params import Physics
 
+# 1/s: a sheet's settle ends once every voxel is slower than 1e-6 voxel lengths/s and 1e-6
+# rad/s (for 5 ms): a flat sheet comes to rest within about 1 % of the paper's 1 s settle,
+# and its walk then moves by at most 5e-11 voxel lengths (docs/performance.md)
+SHEET_SETTLE_REST = 1e-6
+
 BODIES = {
     "grid": "the grown grid is the robot (a 2D one moves in the x-z plane)",
     "sheet": "a 2D pattern lies flat on the floor as one layer of voxels and walks in 3D "
-             "(the paper's 2D robots), for the 2D times, scored by the 2D rule",
+             "(the paper's 2D robots), for the 2D times, scored by the 2D rule; its settle "
+             "ends once it is at rest",
 }
 
 
@@ -46,9 +52,15 @@ def body_robot(robot: Robot, body: str) -> Robot:
 
 
 def body_physics(physics: Physics, body: str) -> Physics:
-    """The physics robots of `body` walk in: `physics`, for a sheet with its unset settle
-    and measured times the paper's 2D ones (a sheet is a 3D robot, whose defaults are 3D's)."""
+    """The physics robots of `body` walk in: `physics` (an unset settle rest is the full
+    settle), for a sheet with its unset settle and measured times the paper's 2D ones (a
+    sheet is a 3D robot, whose defaults are 3D's) and its unset settle rest (`Scene.
+    settle_rest` None) SHEET_SETTLE_REST on the voxel pipeline."""
     if body != "sheet":
         return physics
-    settle, measured = physics.scene.timing(2)
-    return physics.replace(settle_time=settle, measured_time=measured)
+    scene = physics.scene
+    rest = scene.settle_rest
+    if rest is None:
+        rest = SHEET_SETTLE_REST if physics.pipeline.name == "voxel" else 0.0
+    settle, measured = scene.timing(2)
+    return physics.replace(settle_time=settle, measured_time=measured, settle_rest=rest)

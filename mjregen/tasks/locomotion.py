@@ -91,7 +91,8 @@ class LocomotionTask:
     def from_config(cls, config: dict) -> LocomotionTask:
         """The task `to_config` described (physics descriptions of any format migrate; a
         description without starts is one from before them: one start, seed 0; one without
-        a body walks the grown grid).
+        a body walks the grown grid; sheets described before the settle rest, physics format
+        5 and older, settled for the full time).
 
         Raises:
           ValueError: `config` is not a locomotion task's.
@@ -99,10 +100,13 @@ class LocomotionTask:
         """
         if config.get("task") != "locomotion":
             raise ValueError(f"not a locomotion task: {config.get('task')!r}")
-        return cls(nca=NCAConfig.from_dict(config["nca"]),
-                   physics=Physics.from_dict(config["physics"]), duration=config["duration"],
-                   starts=config.get("starts", 1), start_seed=config.get("start_seed", 0),
-                   body=config.get("body", "grid"))
+        body = config.get("body", "grid")
+        physics = Physics.from_dict(config["physics"])
+        if body == "sheet" and config["physics"].get("format", 1) < 6:
+            physics = physics.replace(settle_rest=0.0)
+        return cls(nca=NCAConfig.from_dict(config["nca"]), physics=physics,
+                   duration=config["duration"], starts=config.get("starts", 1),
+                   start_seed=config.get("start_seed", 0), body=body)
 
     @property
     def genome_size(self) -> int:

@@ -300,11 +300,17 @@ def test_walk_a_pattern_or_its_sheet_as_the_paper_2d_robot(tmp_path, capsys):
         assert main(["walk", str(tmp_path / name), "--body", "sheet", "--duration", "0.05",
                      "--json"]) == 0
         reports.append(json.loads(capsys.readouterr().out))
-    expected = simulate(lay_flat(pattern), physics=Physics().replace(settle_time=1.0),
-                        duration=0.05)
+    sheet_physics = Physics().replace(settle_time=1.0, settle_rest=1e-6)
+    expected = simulate(lay_flat(pattern), physics=sheet_physics, duration=0.05)
     for report in reports:  # the 2D times and the 2D rule: the fitness is the distance
         assert report["distance"] == expected.distance == report["fitness"]
         assert report["sim_time"] == pytest.approx(1.05, abs=1e-4)  # whole steps
+    # --settle-rest 0: the full settle
+    assert main(["walk", str(tmp_path / "pattern.npy"), "--body", "sheet", "--duration", "0.05",
+                 "--settle-rest", "0", "--json"]) == 0
+    full = simulate(lay_flat(pattern), physics=sheet_physics.replace(settle_rest=0.0),
+                    duration=0.05)
+    assert json.loads(capsys.readouterr().out)["distance"] == full.distance
     assert main(["walk", WALKER, "--body", "sheet"]) == 1
     assert "is not a sheet: a 3D grid of" in capsys.readouterr().err
     # the exported model of the pattern is the sheet's, its muscles starting after 1 s
@@ -316,3 +322,4 @@ def test_walk_a_pattern_or_its_sheet_as_the_paper_2d_robot(tmp_path, capsys):
     model = mujoco.MjModel.from_xml_path(str(xml))
     assert model.nbody == 1 + np.count_nonzero(pattern) and model.nq == 7 * model.nbody - 7
     assert 'key="start" value="1.0"' in xml.read_text()
+    assert 'key="settle_rest" value="1e-06 0.005"' in xml.read_text()  # held at rest

@@ -182,7 +182,7 @@ def test_replace_with_an_unknown_field_names_both_field_sets():
     message = str(voxel.value)
     assert message.startswith("colour, contact_shape: not a field of the scene or of the voxel")
     scene = "bond_damping_ratio, drag_ratio, floor, frequency, gravity, measured_time, " \
-            "settle_time, start_shift, timestep_safety, voxel_size, waveform"
+            "settle_rest, settle_time, start_shift, timestep_safety, voxel_size, waveform"
     assert f"scene: {scene};" in message
     assert "voxel: beam_damping, beam_law, bond_element, bond_model, collision_damping, " \
            "collision_hops, collision_radius, collision_stiffness, drag_law, floor_damping, " \
@@ -242,7 +242,7 @@ def test_physics_pickles_and_round_trips_through_json():
                                       contact_shape="box", contact_stiffness=None)):
         assert pickle.loads(pickle.dumps(physics)) == physics  # sent to worker processes
         values = physics.to_dict()
-        assert values["format"] == PHYSICS_FORMAT == 5
+        assert values["format"] == PHYSICS_FORMAT == 6
         assert set(values) == {"format", "materials", "scene", "pipeline"}
         assert values["pipeline"]["name"] == physics.pipeline.name
         assert Physics.from_dict(json.loads(json.dumps(values))) == physics
@@ -269,6 +269,17 @@ def test_physics_pickles_and_round_trips_through_json():
     newer["format"] = PHYSICS_FORMAT + 1
     with pytest.raises(PhysicsParameterError, match=f"format {PHYSICS_FORMAT + 1}"):
         Physics.from_dict(newer)
+
+
+def test_format_5_leaves_the_settle_rest_to_the_body():
+    """Format 5 had no settle rest: its descriptions read as unset (the body decides: the
+    full settle for every robot but a sheet; a sheet's task reads the format, tests/tasks),
+    so every run described then reads as it was written."""
+    description = Physics().to_dict()
+    description["format"] = 5
+    del description["scene"]["settle_rest"]
+    assert Physics.from_dict(description) == Physics()
+    assert Physics().scene.settle_rest is None and Physics().scene.rest_threshold == 0.0
 
 
 # format 1: one flat scene of every field (run folders and asset manifests written before

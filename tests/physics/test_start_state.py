@@ -11,6 +11,7 @@ from mjregen.grid import Robot
 from mjregen.physics import Physics, PhysicsParameterError, migrate_physics
 from mjregen.physics.compile import compile_robot
 from mjregen.physics.model import robot_layout
+from mjregen.physics.migrate import PHYSICS_FORMAT
 from mjregen.physics.params import DEFAULT_START_SHIFT
 from mjregen.physics.simulation import simulate, simulate_starts
 from mjregen.physics.start_state import MAX_STARTS, key_name, rest_qpos, start_generator
@@ -113,7 +114,7 @@ def test_the_default_start_shift_and_older_descriptions():
     older = {**Physics().to_dict(), "format": 4}
     older["scene"] = {k: v for k, v in older["scene"].items() if k != "start_shift"}
     assert Physics.from_dict(older).scene.start_shift == 0.0
-    assert migrate_physics(older)["format"] == 5
+    assert migrate_physics(older)["format"] == PHYSICS_FORMAT
 
 
 @pytest.mark.parametrize("shift", [-1e-9, math.nan, math.inf, 0.5, "1e-4", True, 1e-6])

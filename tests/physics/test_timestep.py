@@ -196,7 +196,8 @@ def test_network_rule_is_the_voxel_pipelines_default():
     assert MujocoPipeline().timestep_rule == "stiffest_bond"  # needs no C compiler
     old = Physics().to_dict()
     old = {"materials": old["materials"],  # format 1: written before the rule existed
-           "scene": {**{k: v for k, v in old["scene"].items() if k != "start_shift"},
+           "scene": {**{k: v for k, v in old["scene"].items()
+                        if k not in ("start_shift", "settle_rest")},
                      "contact_shape": "engine", "bond_element": "beam"}}
     assert Physics.from_dict(old).pipeline.timestep_rule == "stiffest_bond"
 

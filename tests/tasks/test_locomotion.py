@@ -253,7 +253,8 @@ def test_a_sheet_is_the_pattern_laid_flat_walked_in_3d_and_scored_by_the_2d_rule
 def test_a_sheet_walks_for_the_paper_2d_times_unless_they_are_set():
     sheet = locomotion.LocomotionTask(nca=NCA, body="sheet")
     assert sheet.robot_physics.scene.timing(3) == (1.0, 0.25)  # a 3D robot, 2D times
-    assert sheet.robot_physics.replace(settle_time=None, measured_time=None) == sheet.physics
+    assert sheet.robot_physics.replace(settle_time=None, measured_time=None,
+                                       settle_rest=None) == sheet.physics
     assert fresh_task(body="sheet").robot_physics.scene.timing(3) == (0.01, 0.25)
     assert locomotion.LocomotionTask(nca=NCA).robot_physics == Physics()  # a grid: unchanged
 
@@ -269,6 +270,17 @@ def test_a_body_is_part_of_the_task_configuration():
         fresh_task(body="plate")
     with pytest.raises(ValueError, match="a sheet body lays a 2D pattern flat; this NCA is 3D"):
         locomotion.LocomotionTask(nca=NCAConfig(dim=3, kind="ff"), body="sheet")
+
+
+def test_a_sheet_run_described_before_the_settle_rest_keeps_the_full_settle():
+    """Physics format 5 had no settle rest: a sheet run written then resumes with the full
+    settle it was started with; a grid run's physics reads unchanged."""
+    for body, rest in (("sheet", 0.0), ("grid", None)):
+        config = fresh_task(body=body).to_config()
+        config["physics"]["format"] = 5
+        del config["physics"]["scene"]["settle_rest"]
+        assert locomotion.LocomotionTask.from_config(config).physics.scene.settle_rest == rest
+    assert fresh_task(body="sheet").robot_physics.scene.settle_rest == 1e-6  # today's
 
 
 def test_the_fitness_rule_can_be_the_other_dimension():

@@ -13,7 +13,8 @@
      exp(dt w / 2), w in the body frame)
 
    which this loop does in mj_step's order (forward at the start state: the plugin's forces;
-   then mj_Euler's advance: velocities, positions, time, the plugin's state). The result
+   then mj_Euler's advance: velocities, positions, time, the plugin's state; a robot held at
+   rest in the settle, `settle_rest`, is not stepped: time alone advances). The result
    equals mj_step's to rounding; the generic pipeline (kinematics, composite inertia,
    factorisation, RNE) is skipped, about half of a step's cost. Like mj_step it stops on a
    bad acceleration or velocity (NaN or above 1e10) and records MuJoCo's warning (the bad
@@ -248,11 +249,16 @@ int mjr_step(const mjModel* m, mjData* d, int instance, int nstep, double* com) 
   double* w = v->state + MJR_QVEL * N;
   mjr_load_state(v, d);
   memset(d->qfrc_passive, 0, nv * sizeof(double)); /* MuJoCo's own passive forces: none */
-  int done = 0;
+  int done = 0, held = 0;
   for (; done < nstep; done++) {
     if (com) {
       mjr_store_state(v, d);
       centre_of_mass(m, d, total, com + 3 * done);
+    }
+    held = mjr_holding(m, d, v, stick);
+    if (held) { /* at rest until the muscles start: mj_step's step undone (voxels.c) */
+      d->time += dt;
+      continue;
     }
     mjr_voxel_forces(m, d, v, stick, 0);
     int which = 0;
@@ -283,16 +289,20 @@ int mjr_step(const mjModel* m, mjData* d, int instance, int nstep, double* com) 
       }
     }
     d->time += dt;
-    mjr_advance(m, d, instance);
+    memcpy(stick, v->stick_next, N * sizeof(mjtNum)); /* the plugin's advance */
+    mjr_settle_rest(m, d, v, stick);
   }
   mjr_store_state(v, d);
-  { /* the last (or the failed) step's forces and accelerations */
+  { /* the last (or the failed) step's forces and accelerations; a held step's: no force,
+       gravity's (and the applied forces') acceleration, as mj_step computes it */
     for (size_t n = 0; n < N; n++) {
       int va = v->vadr[n];
       if (va < 0) continue;
       for (int k = 0; k < nd; k++) {
-        d->qfrc_passive[va + k] = generalized[k * N + n];
-        d->qacc[va + k] = acc[k * N + n];
+        double applied = per_dof[k * N + n], weight = per_dof[(nd + k) * N + n];
+        d->qfrc_passive[va + k] = held ? 0.0 : generalized[k * N + n];
+        d->qacc[va + k] = held ? (0.0 + applied + weight) * per_dof[(2 * nd + k) * N + n]
+                               : acc[k * N + n];
       }
     }
   }

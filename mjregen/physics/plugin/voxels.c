@@ -1,10 +1,14 @@
 /* The "mjregen.voxels" engine plugin: registration, configuration and lifecycle.
 
    Like MuJoCo's own plugins (plugin/elasticity), configuration attributes are read once per
-   mjData in `init`, the state (each voxel's floor stick flag) lives in plugin_state, and the
-   forces are added to qfrc_passive in `compute` (forces.c). `compute` decides the stick flags
-   for the end of the step without touching the state; `advance` (called by mj_step after
-   the integration) makes them the state, so mj_forward has no side effect.
+   mjData in `init`, the state (each voxel's floor stick flag; with `settle_rest` the
+   settle's rest) lives in plugin_state, and the forces are added to qfrc_passive in
+   `compute` (forces.c). `compute` decides the stick flags for the end of the step without
+   touching the state; `advance` (called by mj_step after the integration) makes them the
+   state, so mj_forward has no side effect. A robot at rest in the settle is held still:
+   `compute` adds no force and `advance` puts back the positions and zero velocities that
+   the step's gravity changed, so mj_step holds it exactly as the native stepper, which
+   skips those steps.
 */
 #include <errno.h>
 #include <math.h>
@@ -290,6 +294,16 @@ static void configure_scene(mjrParse* p, mjrVoxels* v) {
   if (p->ok && !(v->voxel_size > 0)) fail(p, "voxel_size must be > 0");
   v->omega = 2.0 * mjPI * scalar(p, "frequency");
   v->start = scalar(p, "start");
+  if (*config(p->m, p->instance, "settle_rest")) {
+    double* rest = doubles(p, "settle_rest", 2);
+    if (rest) {
+      v->rest_speed = rest[0];
+      v->rest_window = rest[1];
+      if (!(rest[0] >= 0.0 && rest[1] >= 0.0))
+        fail(p, "settle_rest must be a speed and a time >= 0, got %g %g", rest[0], rest[1]);
+    }
+    free(rest);
+  }
   v->contract = either(p, "waveform", "contract", "symmetric");
   v->ctrl_plus = v->ctrl_minus = -1;
   if (either(p, "drive", "ctrl", "waveform")) {
@@ -445,8 +459,15 @@ mjrVoxels* mjr_instance(const mjModel* m, const mjData* d, int instance) {
   return (mjrVoxels*)d->plugin_data[instance];
 }
 
+/* Joint position rows per voxel: 7 in 3D, 3 in 2D. */
+static int position_rows(int dim) { return dim == 3 ? 7 : 3; }
+
+/* The stick flags, and with a settle rest its slots and the held positions. */
 static int nstate(const mjModel* m, int instance) {
-  return count_tokens(config(m, instance, "voxels"));
+  int n = count_tokens(config(m, instance, "voxels"));
+  if (strtod(config(m, instance, "settle_rest"), NULL) > 0.0)
+    n += MJR_REST_POS + position_rows((int)strtod(config(m, instance, "dim"), NULL)) * n;
+  return n;
 }
 
 static int init(const mjModel* m, mjData* d, int instance) {
@@ -472,24 +493,87 @@ static void copy(mjData* dest, const mjModel* m, const mjData* src, int instance
 
 static void reset(const mjModel* m, mjtNum* plugin_state, void* plugin_data, int instance) {
   mjrVoxels* v = (mjrVoxels*)plugin_data;
-  int n = nstate(m, instance);
-  memset(plugin_state, 0, n * sizeof(mjtNum));
+  memset(plugin_state, 0, nstate(m, instance) * sizeof(mjtNum));
   if (v) {
-    memset(v->stick_next, 0, n * sizeof(double));
+    memset(v->stick_next, 0, v->nvox * sizeof(double));
     v->coll_built = 0;
   }
+}
+
+/* Whether the muscles are off at d's time (the rule of forces.c's drive: the time rounded
+   to a whole step, before `start`). */
+static int muscles_off(const mjModel* m, const mjData* d, const mjrVoxels* v) {
+  double dt = m->opt.timestep;
+  return floor(d->time / dt + 0.5) * dt < v->start;
+}
+
+int mjr_holding(const mjModel* m, const mjData* d, const mjrVoxels* v, const mjtNum* state) {
+  return v->rest_speed > 0.0 && state[v->nvox + MJR_REST_HELD] != 0.0 && muscles_off(m, d, v);
+}
+
+/* Every voxel slower than the rest threshold: velocity rows (3D: 3 linear, 3 angular; 2D:
+   2 linear, 1 angular), linear ones in voxel lengths/s. */
+static int quiet(const mjrVoxels* v) {
+  const size_t N = (size_t)v->nvox;
+  const double* w = v->state + MJR_QVEL * N;
+  int linear = v->dim == 3 ? 3 : 2, rows = v->dim == 3 ? 6 : 3;
+  double fast = 0.0;
+  for (int k = 0; k < rows; k++) {
+    double limit = k < linear ? v->rest_speed * v->voxel_size : v->rest_speed;
+    for (size_t n = 0; n < N; n++) fast += fabs(w[k * N + n]) >= limit ? 1.0 : 0.0;
+  }
+  return fast == 0.0;
+}
+
+int mjr_settle_rest(const mjModel* m, const mjData* d, mjrVoxels* v, mjtNum* state) {
+  if (!(v->rest_speed > 0.0)) return 0;
+  mjtNum* rest = state + v->nvox;
+  if (rest[MJR_REST_HELD] != 0.0 || !muscles_off(m, d, v)) return 0;
+  if (!quiet(v)) {
+    rest[MJR_REST_QUIET] = 0.0;
+    return 0;
+  }
+  if (rest[MJR_REST_QUIET] == 0.0) {
+    rest[MJR_REST_QUIET] = 1.0;
+    rest[MJR_REST_SINCE] = d->time;
+  }
+  if (d->time - rest[MJR_REST_SINCE] < v->rest_window) return 0;
+  const size_t N = (size_t)v->nvox;
+  rest[MJR_REST_HELD] = 1.0;
+  memcpy(rest + MJR_REST_POS, v->state + MJR_QPOS * N,
+         (size_t)position_rows(v->dim) * N * sizeof(double));
+  memset(v->state + MJR_QVEL * N, 0, (size_t)(v->dim == 3 ? 6 : 3) * N * sizeof(double));
+  return 1;
 }
 
 static void compute(const mjModel* m, mjData* d, int instance, int capability_bit) {
   (void)capability_bit;
   mjrVoxels* v = (mjrVoxels*)d->plugin_data[instance];
-  mjr_forces(m, d, v, d->plugin_state + m->plugin_stateadr[instance], 0);
+  mjtNum* state = d->plugin_state + m->plugin_stateadr[instance];
+  v->held = mjr_holding(m, d, v, state);
+  if (v->held) return; /* held still until the muscles start: no force */
+  mjr_forces(m, d, v, state, 0);
 }
 
-void mjr_advance(const mjModel* m, mjData* d, int instance) {
+/* mj_step's advance: the stick flags decided by the last compute become state, and the
+   settle's rest is tracked; a held step's motion (gravity alone) is undone. */
+static void advance(const mjModel* m, mjData* d, int instance) {
   mjrVoxels* v = (mjrVoxels*)d->plugin_data[instance];
-  memcpy(d->plugin_state + m->plugin_stateadr[instance], v->stick_next,
-         v->nvox * sizeof(mjtNum));
+  mjtNum* state = d->plugin_state + m->plugin_stateadr[instance];
+  const size_t N = (size_t)v->nvox;
+  if (v->held) {
+    mjr_load_state(v, d);
+    memcpy(v->state + MJR_QPOS * N, state + N + MJR_REST_POS,
+           (size_t)position_rows(v->dim) * N * sizeof(double));
+    memset(v->state + MJR_QVEL * N, 0, (size_t)(v->dim == 3 ? 6 : 3) * N * sizeof(double));
+    mjr_store_state(v, d);
+    return;
+  }
+  memcpy(state, v->stick_next, N * sizeof(mjtNum));
+  if (v->rest_speed > 0.0) {
+    mjr_load_state(v, d);
+    if (mjr_settle_rest(m, d, v, state)) mjr_store_state(v, d);
+  }
 }
 
 /* the bonds as lines between voxel centres, when tendons are shown */
@@ -530,7 +614,7 @@ mjPLUGIN_LIB_INIT(mjregen_voxels) {
   plugin.copy = copy;
   plugin.reset = reset;
   plugin.compute = compute;
-  plugin.advance = mjr_advance;
+  plugin.advance = advance;
   plugin.visualize = visualize;
   plugin_slot = mjp_registerPlugin(&plugin);
 }

@@ -5,7 +5,8 @@
    Files: voxels.c (registration, configuration, lifecycle), forces.c (bonds, muscles,
    floor, self-collision, drag), step.c (the fast path of mj_step). All configuration comes
    from the plugin instance's attributes in the model (strings, read once per mjData in
-   `init`); the only state is the floor's stick flag of each voxel, in plugin_state.
+   `init`); the state, in plugin_state, is the floor's stick flag of each voxel and, with
+   `settle_rest`, the settle's rest (MJR_REST_*).
 */
 #ifndef MJREGEN_VOXELS_H_
 #define MJREGEN_VOXELS_H_
@@ -20,6 +21,10 @@
   X(voxels)           /* n body names, in voxel order */                            \
   X(frequency)        /* Hz of the muscles */                                        \
   X(start)            /* s: the muscles start (end of the settle) */                 \
+  X(settle_rest)      /* (2) 1/s, s: the settle ends at rest once every voxel has   \
+                         moved slower than [0] voxel lengths/s and turned slower than \
+                         [0] rad/s for [1] s; the robot is then held still until the \
+                         muscles start. Absent: the full settle */                   \
   X(waveform)         /* contract | symmetric */                                     \
   X(drive)            /* waveform | ctrl: strains from actuators muscle_plus/minus */ \
   X(phase)            /* (n) -1, 0, +1: muscle phase of each voxel */                \
@@ -57,6 +62,13 @@
 
 #define MJR_COUNT_ATTRIBUTE(name) +1
 enum { MJR_NATTRIBUTE = 0 MJR_ATTRIBUTES(MJR_COUNT_ATTRIBUTE) };
+
+/* plugin_state: the stick flags (nvox), then with `settle_rest` these slots and the held
+   positions (the joint state's position rows, 7 nvox in 3D, 3 nvox in 2D). */
+enum { MJR_REST_HELD = 0,   /* 1: at rest, held still until the muscles start */
+       MJR_REST_QUIET = 1,  /* 1: every voxel slower than the threshold since ... */
+       MJR_REST_SINCE = 2,  /* ... this time (s) */
+       MJR_REST_POS = 3 };
 
 /* Rows of the voxels' scratch (each nvox doubles), derived from the state each step:
    position, rotation matrix (row-major), velocity, angular velocity (world), force and
@@ -97,6 +109,9 @@ typedef struct {
   int ctrl_plus, ctrl_minus;  /* drive "ctrl": the actuators whose ctrl are the strains
                                  (e+, e-); -1: the waveform drives the muscles */
   double voxel_size, start, omega;
+  double rest_speed;      /* 1/s: the settle's rest threshold (voxel lengths/s, rad/s); 0: off */
+  double rest_window;     /* s the robot must stay below it */
+  int held;               /* mj_step: this step's compute held the robot (no forces) */
   int* qadr;              /* (nvox) first qpos address, -1: welded to the world */
   int* vadr;              /* (nvox) first dof address, -1: welded */
   int* body;              /* (nvox) body ids */
@@ -183,7 +198,15 @@ static inline __attribute__((always_inline)) int mjr_generalized(
 /* voxels.c: the instance's state on d (NULL if `instance` is not an mjregen.voxels plugin) */
 mjrVoxels* mjr_instance(const mjModel* m, const mjData* d, int instance);
 
-/* voxels.c: the plugin's `advance`: the stick flags decided by the last compute become state */
-void mjr_advance(const mjModel* m, mjData* d, int instance);
+/* voxels.c: whether the step from d's time holds the robot still: it came to rest in the
+   settle (`settle_rest`) and the muscles have not started. `state`: the instance's
+   plugin_state. */
+int mjr_holding(const mjModel* m, const mjData* d, const mjrVoxels* v, const mjtNum* state);
+
+/* voxels.c: after a step's integration (the new state in v's rows, d's time advanced): with
+   `settle_rest`, in the settle, track how long every voxel has been slower than the threshold;
+   once for the window, the robot is at rest: its velocity rows are zeroed and its positions
+   kept in `state`. Returns 1 when the rest begins (the rows changed). */
+int mjr_settle_rest(const mjModel* m, const mjData* d, mjrVoxels* v, mjtNum* state);
 
 #endif  /* MJREGEN_VOXELS_H_ */
