@@ -265,6 +265,7 @@ class Report:
 
     def settings(self) -> None:
         from mjregen.physics import PAPER_TIMES, Physics, paper_physics
+        from mjregen.tasks.locomotion import LocomotionTask
 
         self.add("## Settings: what was run, against the paper", "",
                  "| condition | paper: pop × gens × runs | here: pop × gens (finished) × runs | "
@@ -292,7 +293,10 @@ class Report:
             same = (settle_s, walk_s) == (paper_settle, paper_walk)
             body = ("one-layer sheets on the floor (the paper's 2D robots); "
                     if task.get("body") == "sheet" else "")
-            timing = (f"{body}settle {fmt(settle_s)} s + walk {fmt(walk_s)} s"
+            rest = (LocomotionTask.from_config(task).robot_physics.scene.rest_threshold
+                    if task.get("task") == "locomotion" else 0.0)
+            ends = f", ending once at rest (`settle_rest` {rest:g})" if rest else ""
+            timing = (f"{body}settle {fmt(settle_s)} s{ends} + walk {fmt(walk_s)} s"
                       + (" (the paper's)" if same else ""))
             stored = Physics.from_dict(physics) if isinstance(physics, dict) and physics else None
             hours = f"{sum(r.elapsed for r in runs) / 3600:.2g}"

@@ -396,8 +396,12 @@ def test_results_report_writes_every_section(results, tmp_path, monkeypatch):
     assert "| 3d_lstm | 100 × 300 × 24 | not run |" in text
     hours = sum(r.elapsed for r in ex.list_runs(results)["2d_ff"]) / 3600
     assert hours > 0
-    assert next(line for line in text.splitlines() if line.startswith("| 2d_ff | 300 ×")
-                ).endswith(f"| {hours:.2g} h |")
+    settings_2d = next(line for line in text.splitlines() if line.startswith("| 2d_ff | 300 ×"))
+    assert settings_2d.endswith(f"| {hours:.2g} h |")
+    assert "one-layer sheets on the floor" in settings_2d
+    assert "ending once at rest (`settle_rest` 1e-06)" in settings_2d  # sheets' default
+    assert "at rest" not in next(line for line in text.splitlines()
+                                 if line.startswith("| 3d_ff | 100 ×"))
     assert "| Tripod (feed forward) | 99 % (728/729) | 44.5 | 1.63 (3.6 %) | 20.3 (45 %) |" in text
     assert "walker_1 (feed-forward)" in text
     # 2D: two feed-forward runs, one LSTM run: no comparison of the networks is claimed
