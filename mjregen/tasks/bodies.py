@@ -16,7 +16,7 @@ from mjregen.physics.params import Physics
 
 # 1/s: a sheet's settle ends once every voxel is slower than 1e-6 voxel lengths/s and 1e-6
 # rad/s (for 5 ms): a flat sheet comes to rest within about 1 % of the paper's 1 s settle,
-# and its walk then moves by at most 5e-11 voxel lengths (docs/performance.md)
+# and its walk then moves by at most about 1e-11 voxel lengths (docs/performance.md)
 SHEET_SETTLE_REST = 1e-6
 
 BODIES = {
