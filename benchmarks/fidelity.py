@@ -485,8 +485,9 @@ set steps of 1.8–2.7e-5 s.
 The earlier physics followed the later Voxelyze 2 (its floor, its collision envelope) and
 the tendon bundle's calibration; the paper's binary is evosoro's older Voxelyze. Reading
 its source, five of its laws differed from mjregen's; each is now the default and a
-`VoxelPipeline` option (`Scene.bond_damping_ratio` for ζ), and descriptions of physics
-format 1–3 migrate to the earlier rule, so old runs replay unchanged:
+`VoxelPipeline` option (`Scene.bond_damping_ratio` for ζ), whose other value is the
+earlier rule (descriptions of physics formats 1–3, which held it, are read by the mjregen
+at git tag `physics-formats-1-3`):
 
 {changes}
 

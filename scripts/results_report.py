@@ -207,7 +207,7 @@ def _network_comparison(dim: int, ff: list, lstm: list) -> str:
                "no difference at the 5 % level")
     return (f"{dim}D, best fitness at generation {g} (the last all runs reached): "
             f"{comparison.sentence(('feed-forward', 'LSTM'))}: {verdict}; the paper found "
-            f"{paper} (24 runs per condition).")
+            f"{paper} ({ex.CONDITIONS[f'{dim}d_ff'].paper_runs} runs per condition).")
 
 
 class Report:

@@ -18,9 +18,10 @@ import pytest
 
 from mjregen.grid import Material, Robot
 from mjregen.growth.checkpoint import load_nca
-from mjregen.physics import Physics, Scene, VoxelPipeline, migrate_physics
-from mjregen.physics.migrate import PHYSICS_FORMAT
+from mjregen.physics import Physics, migrate_physics
+from mjregen.physics.migrate import OLDEST_FORMAT, PHYSICS_FORMAT
 from mjregen.physics.simulation import simulate
+from mjregen.tasks.bodies import body_physics, body_robot
 from mjregen.tasks.evaluation import RobotJob, evaluate_robot
 
 ASSETS = Path(__file__).resolve().parents[1] / "assets"
@@ -62,18 +63,20 @@ def test_shipped_nca_reproduces_its_manifest(key):
         return
     nca, _ = load_nca(npz)
     assert nca.config.to_dict() == entry["nca"]
-    robot = nca.grow().robot()
+    evaluation = entry["evaluation"]
+    body = evaluation.get("body", "grid")  # a 2D run of the paper's: its sheet
+    robot = body_robot(nca.grow().robot(), body)
     assert robot == Robot.load(robot_file), "the NCA no longer grows the shipped robot"
     assert robot.n_voxels == entry["robot"]["voxels"]
     counts = robot.material_counts()
     for material in Material:
         if material != Material.EMPTY:
             assert counts.get(material, 0) == entry["robot"][material.name.lower()]
-    evaluation = entry["evaluation"]
-    physics = Physics.from_dict(evaluation["physics"])  # migrated from its format
+    physics = body_physics(Physics.from_dict(evaluation["physics"]), body)  # migrated
     # as its run scored it (entries from before the start shift: one exact start)
     result = evaluate_robot(RobotJob(np.asarray(robot.grid), physics, evaluation["duration_s"],
-                                     evaluation.get("starts", 1), evaluation.get("start_seed", 0)))
+                                     evaluation.get("starts", 1), evaluation.get("start_seed", 0),
+                                     rule=nca.config.dim))
     assert result.stable == entry["stable"]
     fitness = result.fitness
     assert fitness == pytest.approx(entry["fitness"], rel=RTOL, abs=ATOL)
@@ -83,39 +86,23 @@ def test_shipped_nca_reproduces_its_manifest(key):
 
 
 @pytest.mark.parametrize("key", REAL or [NO_REAL])
-def test_shipped_physics_descriptions_migrate_to_what_they_were_evaluated_with(key):
-    """The manifest's descriptions are format 1 (one flat scene, no "format"; contact shape
-    "engine", written before beam bonds, the native stepper and the network rule): they load
-    as the voxel pipeline with tendon bonds, ``mj_step`` and the stiffest-bond step, the
-    engine floor's constants and the self-collision radius, the exact start, and round-trip
-    as today's format."""
+def test_shipped_physics_descriptions_are_read_as_they_were_written(key):
+    """Every manifest description has a format this mjregen reads (OLDEST_FORMAT or later)
+    and migrates to today's with its own scene and pipeline, the fields added since set to
+    what its evaluation did (before format 5: the exact start; before 6: the settle rest
+    unset, the body's), and round-trips."""
     if key == NO_REAL:
         assert MANIFEST["walker_3d.npz"]["placeholder"] is True
         return
     old = MANIFEST[key]["evaluation"]["physics"]
-    if "format" in old:  # re-shipped since: format 4, before the start shift (exact starts)
-        migrated = migrate_physics(old)
-        assert migrated["scene"] == {**old["scene"], "start_shift": 0.0, "settle_rest": None}
-        assert migrated["pipeline"] == old["pipeline"] and migrated["format"] == PHYSICS_FORMAT
-        return
-    scene = old["scene"]
-    assert scene["contact_shape"] == "engine" and "bond_element" not in scene
-    physics = Physics.from_dict(old)
-    assert physics.scene == Scene(**{name: scene[name] for name in (
-        "voxel_size", "gravity", "frequency", "waveform", "settle_time", "measured_time",
-        "bond_damping_ratio", "drag_ratio", "floor", "timestep_safety")}, start_shift=0.0)
-    assert physics.pipeline == VoxelPipeline(
-        bond_element="tendons", bond_model=scene["bond_model"],
-        floor_stiffness=scene["contact_stiffness"], floor_damping=scene["contact_damping"],
-        collision_radius=scene["collision_radius"] if scene["self_collision"] else 0.0,
-        timestep_rule="stiffest_bond", stepper="mujoco",
-        # the rules before format 4
-        beam_law="tendons", beam_damping="stiffness_proportional", friction_stop="energy",
-        collision_stiffness=scene["contact_stiffness"],
-        collision_damping=scene["contact_damping"], collision_hops=0, drag_law="stokes")
+    assert OLDEST_FORMAT <= old["format"] <= PHYSICS_FORMAT
+    added = {"start_shift": 0.0} if old["format"] < 5 else {}
+    if old["format"] < 6:
+        added["settle_rest"] = None
     migrated = migrate_physics(old)
-    assert migrated["format"] == PHYSICS_FORMAT and migrated["pipeline"]["name"] == "voxel"
-    assert Physics.from_dict(migrated) == physics
+    assert migrated["scene"] == {**old["scene"], **added}
+    assert migrated["pipeline"] == old["pipeline"] and migrated["format"] == PHYSICS_FORMAT
+    physics = Physics.from_dict(old)
     assert Physics.from_dict(json.loads(json.dumps(physics.to_dict()))) == physics
 
 

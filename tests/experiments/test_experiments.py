@@ -21,6 +21,7 @@ from mjregen.physics import Physics
 from mjregen.physics.simulation import simulate
 from mjregen.search.ga import PRESETS
 from mjregen.search.runs import METRICS, RunFolderError
+from mjregen.tasks.bodies import body_physics
 from mjregen.tasks.fitness import locomotion_fitness
 from mjregen.tasks.locomotion import LocomotionTask
 
@@ -300,8 +301,8 @@ def test_ship_assets_matches_resimulation_and_never_overwrites(results, tmp_path
         evaluation = entry["evaluation"]  # as the run scored it: its starts and their seed
         assert (evaluation["starts"], evaluation["start_seed"]) == (1, best.seed)
         assert evaluation["body"] == "sheet"
-        physics = Physics.from_dict(evaluation["physics"]).replace(
-            settle_time=evaluation["settle_s"])
+        physics = body_physics(Physics.from_dict(evaluation["physics"]), "sheet")
+        assert physics.scene.timing(3)[0] == evaluation["settle_s"]
         result = simulate(robot, physics=physics, duration=evaluation["duration_s"],
                           start_seed=evaluation["start_seed"])
         assert locomotion_fitness(result, rule=2) == pytest.approx(entry["fitness"], rel=1e-6,

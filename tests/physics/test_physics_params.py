@@ -17,6 +17,7 @@ from mjregen.physics import (
     migrate_physics,
     paper_physics,
 )
+from mjregen.physics.migrate import REPLAYS_FORMATS_1_TO_3
 from mjregen.physics.timestep import stiffest_bond_step
 
 
@@ -282,106 +283,21 @@ def test_format_5_leaves_the_settle_rest_to_the_body():
     assert Physics().scene.settle_rest is None and Physics().scene.rest_threshold == 0.0
 
 
-# format 1: one flat scene of every field (run folders and asset manifests written before
-# description formats, e.g. assets/nca/manifest.json), here with its old class defaults
-FORMAT_1_SCENE = {
-    "voxel_size": 1e-3, "gravity": 27.468, "frequency": 40.0, "waveform": "contract",
-    "settle_time": None, "measured_time": None, "bond_damping_ratio": 0.4,
-    "integrator": "euler", "timestep_safety": 0.75, "floor": True, "contact_timeconst": 3e-4,
-    "contact_dampratio": 1.0, "contact_width": 1e-5, "bond_model": "euler_bernoulli",
-    "drag_ratio": 0.001, "contact_shape": "engine", "contact_stiffness": 2.0,
-    "contact_damping": 0.8, "self_collision": True, "damp_strain_rate": False,
-    "collision_radius": 0.625, "bond_element": "beam", "stepper": "auto",
-    "timestep_rule": "network",
-}
-
-
-# the voxel pipeline's rules before format 4 (the floor's constants for self-collision)
-def rules_before_format_4(floor_stiffness: float = 2.0, floor_damping: float = 0.8,
-                          collision_radius: float = 0.625) -> dict:
-    return dict(beam_law="tendons", beam_damping="stiffness_proportional",
-                friction_stop="energy", collision_radius=collision_radius,
-                collision_stiffness=floor_stiffness, collision_damping=floor_damping,
-                collision_hops=0, drag_law="stokes")
-
-
-# Physics() before format 4 (and before format 5's start shift: every walk started exact)
-FORMAT_3_DEFAULT = Physics().replace(bond_damping_ratio=0.4, start_shift=0.0,
-                                     **rules_before_format_4())
-
-
-def format_1(**scene) -> dict:
-    materials = Physics().to_dict()["materials"]
-    return {"materials": materials, "scene": {**FORMAT_1_SCENE, **scene}}
-
-
-def test_format_1_engine_floor_migrates_to_the_voxel_pipeline():
-    """Contact shape "engine" was the voxel plugin's floor: its stiffness and damping are the
-    voxel pipeline's floor's, `self_collision` folds into the radius."""
-    migrated = migrate_physics(format_1())
-    assert migrated["format"] == PHYSICS_FORMAT and "format" not in format_1()
-    assert Physics.from_dict(format_1()) == FORMAT_3_DEFAULT  # the old defaults
-    physics = Physics.from_dict(format_1(
-        settle_time=0.2, gravity=10.0, bond_damping_ratio=0.5, contact_stiffness=3.0,
-        contact_damping=0.7, self_collision=False, bond_element="tendons",
-        bond_model="timoshenko", stepper="native", timestep_rule="stiffest_bond",
-        contact_timeconst=1e-3, bond_backend="native"))
-    assert physics.scene == Scene(settle_time=0.2, gravity=10.0, bond_damping_ratio=0.5,
-                                  start_shift=0.0)
-    assert physics.pipeline == VoxelPipeline(
-        bond_element="tendons", bond_model="timoshenko", floor_stiffness=3.0,
-        floor_damping=0.7, stepper="native", timestep_rule="stiffest_bond",
-        **rules_before_format_4(3.0, 0.7, collision_radius=0.0))
-    # a description from before beam bonds, the native stepper and the network rule: what
-    # it was evolved with (tendons, mj_step, the stiffest-bond step); other missing fields
-    # take the old class defaults
-    old = {"materials": format_1()["materials"], "scene": {"contact_shape": "engine"}}
-    assert Physics.from_dict(old) == FORMAT_3_DEFAULT.replace(
-        bond_element="tendons", stepper="mujoco", timestep_rule="stiffest_bond")
-    # MuJoCo's Euler integrator only
-    with pytest.raises(PhysicsParameterError, match="Euler"):
-        Physics.from_dict(format_1(integrator="rk4"))
-
-
-def test_format_1_mujoco_contacts_migrate_to_the_mujoco_pipeline():
-    """Any other contact shape was the pure-MuJoCo model: the old defaults it relied on
-    (shear-rigid bonds, damping 0.8, self-collision 0.625) are written out."""
-    physics = Physics.from_dict(format_1(contact_shape="point", bond_element="tendons",
-                                         integrator="rk4"))
-    assert physics.scene == Scene(bond_damping_ratio=0.4, start_shift=0.0)
-    assert physics.pipeline == MujocoPipeline(
-        contact_shape="point", bond_model="euler_bernoulli", contact_stiffness=2.0,
-        contact_damping=0.8, collision_radius=0.625, integrator="rk4",
-        timestep_rule="network")
-    physics = Physics.from_dict(format_1(
-        contact_shape="box", contact_stiffness=None, contact_timeconst=1e-3,
-        contact_dampratio=0.5, contact_width=2e-5, self_collision=False,
-        bond_element="tendons", bond_model="timoshenko", timestep_rule="stiffest_bond",
-        drag_ratio=0.0, bond_damping_ratio=1.0))
-    assert physics.scene == Scene(drag_ratio=0.0, bond_damping_ratio=1.0, start_shift=0.0)
-    assert physics.pipeline == MujocoPipeline(
-        contact_shape="box", contact_stiffness=None, contact_damping=0.8,
-        contact_timeconst=1e-3, contact_dampratio=0.5, contact_width=2e-5,
-        collision_radius=0.0, timestep_rule="stiffest_bond")
-    # missing fields: the old class defaults, and the stiffest-bond step of the time
-    old = {"materials": format_1()["materials"], "scene": {"contact_shape": "sphere"}}
-    assert Physics.from_dict(old).pipeline == MujocoPipeline(
-        contact_shape="sphere", bond_model="euler_bernoulli", contact_damping=0.8,
-        collision_radius=0.625, timestep_rule="stiffest_bond")
-    # beam bonds were only ever the voxel plugin's
-    with pytest.raises(PhysicsParameterError, match="beam bonds with MuJoCo contacts"):
-        Physics.from_dict(format_1(contact_shape="sphere"))  # bond_element "beam"
-
-
-def test_format_1_settings_that_no_longer_exist_are_refused():
-    old = format_1(bond_element="tendons")
-    old["scene"].update(bond_backend="native", damp_strain_rate=False)
-    assert Physics.from_dict(old) == Physics.from_dict(format_1(bond_element="tendons"))
-    old["scene"]["damp_strain_rate"] = True
-    with pytest.raises(PhysicsParameterError, match="damp_strain_rate"):
-        Physics.from_dict(old)
-    with pytest.raises(PhysicsParameterError, match="unknown scene fields"):
-        Physics.from_dict(format_1(colour="red"))
+def test_descriptions_of_formats_1_to_3_are_refused_naming_the_version_that_reads_them():
+    """Formats 1-3 (one without "format" is format 1) were written before the paper engine's
+    laws were the voxel pipeline's options; no stored description is one any more, and the
+    tagged mjregen replays them."""
+    for version in (None, 1, 2, 3):
+        described = Physics().to_dict()
+        if version is None:
+            del described["format"]
+        else:
+            described["format"] = version
+        with pytest.raises(PhysicsParameterError,
+                           match=f"format {version or 1} .*reads formats 4 to "
+                                 f"{PHYSICS_FORMAT}; the mjregen at git tag "
+                                 f"{REPLAYS_FORMATS_1_TO_3}"):
+            Physics.from_dict(described)
     with pytest.raises(PhysicsParameterError, match="invalid physics"):
         migrate_physics({"materials": {}})
 
@@ -396,22 +312,6 @@ def test_timestep_shrinks_with_heavy_bond_damping():
         stiffest_bond_step(Physics(), k_per_m)
 
 
-# Physics().to_dict() as format 2 wrote it (one flat scene, before the pipelines)
-FORMAT_2_DEFAULT_SCENE = {'voxel_size': 0.001, 'gravity': 27.468, 'frequency': 40.0, 'waveform': 'contract', 'settle_time': None, 'measured_time': None, 'bond_damping_ratio': 0.4, 'integrator': 'euler', 'timestep_safety': 0.75, 'floor': True, 'contact_timeconst': 0.0003, 'contact_dampratio': 1.0, 'contact_width': 1e-05, 'bond_model': 'euler_bernoulli', 'drag_ratio': 0.001, 'contact_shape': 'engine', 'contact_stiffness': 2.0, 'contact_damping': 0.8, 'self_collision': True, 'collision_radius': 0.625, 'bond_element': 'beam', 'stepper': 'auto', 'timestep_rule': 'network'}
-
-
-def test_format_2_flat_scene_migrates_to_the_same_physics():
-    described = Physics().to_dict()
-    described.update(format=2, scene=dict(FORMAT_2_DEFAULT_SCENE))
-    del described["pipeline"]
-    assert Physics.from_dict(described) == FORMAT_3_DEFAULT
-    described["scene"]["contact_shape"] = "sphere"
-    described["scene"]["bond_element"] = "tendons"
-    migrated = Physics.from_dict(described)
-    assert migrated.pipeline.name == "mujoco" and migrated.pipeline.contact_shape == "sphere"
-    assert migrated.pipeline.collision_radius == 0.625  # self_collision was on
-
-
 def test_descriptions_without_materials_or_of_a_newer_format_are_refused():
     with pytest.raises(PhysicsParameterError, match="invalid physics description"):
         Physics.from_dict({"scene": {"contact_shape": "engine"}})
@@ -421,20 +321,3 @@ def test_descriptions_without_materials_or_of_a_newer_format_are_refused():
         Physics().replace(pipeline=None)
 
 
-def test_format_3_voxel_pipeline_migrates_to_its_rules_of_the_time():
-    """Format 3 (before the engine's beam, damping, friction, collision and drag laws were
-    options): a voxel pipeline gets the rules it ran with, the floor's constants for its
-    self-collision; a MuJoCo pipeline is unchanged."""
-    described = FORMAT_3_DEFAULT.to_dict()
-    described["format"] = 3
-    del described["scene"]["start_shift"]
-    for key in ("beam_law", "beam_damping", "friction_stop", "collision_stiffness",
-                "collision_damping", "collision_hops", "drag_law"):
-        del described["pipeline"][key]
-    described["pipeline"].update(floor_stiffness=3.0, floor_damping=0.6)
-    physics = Physics.from_dict(described)
-    assert physics == FORMAT_3_DEFAULT.replace(floor_stiffness=3.0, floor_damping=0.6,
-                                               collision_stiffness=3.0, collision_damping=0.6)
-    mujoco = Physics().replace(pipeline="mujoco", contact_shape="box").to_dict()
-    mujoco["format"] = 3
-    assert migrate_physics(mujoco)["pipeline"] == mujoco["pipeline"]

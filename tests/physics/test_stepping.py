@@ -2,9 +2,7 @@
 
 from __future__ import annotations
 
-import json
 import math
-from pathlib import Path
 
 import mujoco
 import numpy as np
@@ -205,17 +203,3 @@ def test_bad_state_stops_and_is_reported_unstable():
     # an unstable time step is reported as unstable, not raised
     result = simulate(Robot.from_body(SLAB), physics=Physics().replace(timestep_safety=3.0))
     assert not result.stable and locomotion_fitness(result) == UNSTABLE_FITNESS[3] == -21.0
-
-
-def test_descriptions_without_a_stepper_replay_with_mj_step():
-    """A format-1 description written before the native stepper (the shipped walkers'):
-    the voxel pipeline with ``mj_step``, as it was evaluated."""
-    manifest = Path(__file__).resolve().parents[2] / "assets" / "nca" / "manifest.json"
-    old = json.loads(manifest.read_text())["walker_2d_lstm.npz"]["evaluation"]["physics"]
-    assert "format" not in old and "stepper" not in old["scene"]
-    physics = Physics.from_dict(old)
-    assert physics.pipeline.name == "voxel" and physics.pipeline.stepper == "mujoco"
-    assert Physics.from_dict({**old, "scene": {**old["scene"], "stepper": "auto"}}
-                             ).pipeline.stepper == "auto"
-    assert Physics().to_dict()["pipeline"]["stepper"] == "auto"
-    assert Physics.from_dict(Physics().to_dict()) == Physics()

@@ -194,12 +194,6 @@ def test_lengthening_muscles_stiffen_their_bonds_contracting_ones_do_not():
 def test_network_rule_is_the_voxel_pipelines_default():
     assert Physics().pipeline.timestep_rule == "network"
     assert MujocoPipeline().timestep_rule == "stiffest_bond"  # needs no C compiler
-    old = Physics().to_dict()
-    old = {"materials": old["materials"],  # format 1: written before the rule existed
-           "scene": {**{k: v for k, v in old["scene"].items()
-                        if k not in ("start_shift", "settle_rest")},
-                     "contact_shape": "engine", "bond_element": "beam"}}
-    assert Physics.from_dict(old).pipeline.timestep_rule == "stiffest_bond"
 
 
 def test_network_rule_fits_the_step_to_the_robot():
