@@ -259,32 +259,94 @@ def startup(rounds: int = 5) -> dict:
     return out
 
 
-RECORDS = ROOT / "records" / "results"  # the results runs' records (config, metrics)
-PAPER_SIZE = ("3d_ff", "3d_lstm")  # conditions run at the paper's 3D scale (100 x 300)
+RECORDS = {  # records of paper-size runs: (conditions at the paper's scale, how they ran)
+    ROOT / "records" / "results": (("3d_ff", "3d_lstm"), "2 worker processes per run"),
+    ROOT / "records" / "paper": (("3d_ff", "3d_lstm", "2d_ff", "2d_lstm"),
+                                 "one run per core (serial), two at once"),
+}
 
 
-def recorded_evolutions(root: Path = RECORDS) -> list[dict]:
-    """Per paper-size 3D evolution kept in `root` (<condition>/seed_<n>): generations done
-    of its planned ones, wall hours (the generations' own, summed), evaluations per second
-    and the wall hours of all its planned generations at that rate."""
+def recorded_evolutions(root: Path, conditions: tuple[str, ...] = ("3d_ff", "3d_lstm"),
+                        how: str = "") -> list[dict]:
+    """Per paper-size evolution of `conditions` kept in `root` (<condition>/seed_<n>):
+    generations done of its planned ones, wall hours (the generations' own, summed),
+    evaluations per second, the wall hours of all its planned generations at that rate, and
+    at its median generation's wall time (s; robust to pauses of the machine)."""
     runs = []
     for condition, infos in list_runs(root).items():
-        if condition not in PAPER_SIZE:
+        if condition not in conditions:
             continue
         for info in infos:
             with open(info.path / "metrics.csv", newline="") as handle:
-                simulated = sum(int(row["distinct"]) for row in csv.DictReader(handle))
+                rows = list(csv.DictReader(handle))
+            simulated = sum(int(row["distinct"]) for row in rows)
+            median_s = statistics.median(float(row["wall_time"]) for row in rows)
             population = info.config["ga"]["population"]
             runs.append({
-                "run": f"{condition} seed {info.seed}", "population": population,
+                "run": f"{condition} seed {info.seed}", "records": root.name, "how": how,
+                "population": population,
                 "generations": info.generations_done, "planned": info.generations_planned,
                 "complete": info.complete, "wall_h": info.elapsed / 3600,
                 "evaluations_per_s": population * info.generations_done / info.elapsed,
                 "simulated_per_s": simulated / info.elapsed,
                 "planned_h": info.elapsed * info.generations_planned / info.generations_done
                 / 3600,
+                "median_generation_s": median_s,
+                "median_h": median_s * info.generations_planned / 3600,
             })
     return runs
+
+
+def all_recorded_evolutions() -> list[dict]:
+    """`recorded_evolutions` of every records folder in `RECORDS`."""
+    return [run for root, (conditions, how) in RECORDS.items()
+            for run in recorded_evolutions(root, conditions, how)]
+
+
+def recorded_bullets(recorded: list[dict]) -> list[str]:
+    """The Result bullets on the finished paper-size runs, per records folder and dimension."""
+    lines = []
+    for records in dict.fromkeys(r["records"] for r in recorded):
+        for dim in ("3d", "2d"):
+            done = [r for r in recorded if r["complete"] and r["records"] == records
+                    and r["run"].startswith(dim)]
+            if done:
+                lines.append(
+                    f"- The finished paper-size {dim.upper()} evolutions of `records/{records}/` "
+                    f"({len(done)}; population {done[0]['population']} × {done[0]['planned']} "
+                    f"generations, {done[0]['how']}): "
+                    f"**{min(r['wall_h'] for r in done):.2f}–{max(r['wall_h'] for r in done):.2f} "
+                    "h** of wall time each; at each run's median generation "
+                    f"{min(r['median_h'] for r in done):.2f}–{max(r['median_h'] for r in done):.2f}"
+                    " h (table below).")
+    return lines
+
+
+def recorded_section(recorded: list[dict]) -> list[str]:
+    """The section on the paper-size evolutions kept in records/."""
+    lines = [
+        "## The evolutions at the paper's scale",
+        "",
+        "The paper-size runs kept in `records/` (`metrics.csv`: each generation's wall time, "
+        "summed), on the 2-core machine of their day: those of `records/results/` on 2 "
+        "worker processes each, some beside other work (test suites, benchmarks, another "
+        "run), so the fastest is the nearest to the machine's own rate; those of "
+        "`records/paper/` one run per core (`--backend serial`), two runs at once, so two "
+        "cores finish two runs in the time of one (a run's hours on 2 cores are half its "
+        "own), some paused or resumed across sessions (the median generation's time is "
+        "robust to both). Evaluations count the population; the GA's cache simulates each "
+        "distinct genome once.",
+        "",
+        "| run | records | generations | wall h | evaluations / s | robots simulated / s | "
+        "all generations at that rate (h) | median s per generation | all generations at "
+        "the median (h) |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    lines += [f"| {r['run']} | {r['records']} | {r['generations']} of {r['planned']} | "
+              f"{r['wall_h']:.2f} | {r['evaluations_per_s']:.2f} | {r['simulated_per_s']:.2f} | "
+              f"{r['planned_h']:.2f} | {r['median_generation_s']:.1f} | {r['median_h']:.2f} |"
+              for r in recorded]
+    return lines
 
 
 def _machine() -> str:
@@ -470,13 +532,7 @@ def performance_doc(report: dict, extra: dict, evolution: dict | None,
             f"{evolution['evaluations_per_s']:.2f} evaluations per second; the paper's 300 "
             f"generations at its mean time per generation: "
             f"**{evolution['projected_paper_run_h']:.1f} h**.")
-    done = [r for r in recorded if r["complete"]]
-    if done:
-        lines.append(
-            f"- The finished paper-size 3D evolutions of `records/` ({len(done)}; population "
-            f"{done[0]['population']} × {done[0]['planned']} generations, 2 worker processes): "
-            f"**{min(r['wall_h'] for r in done):.1f}–{max(r['wall_h'] for r in done):.1f} h** "
-            "of wall time each (table below).")
+    lines += recorded_bullets(recorded)
     lines += [
         "",
         "## Per robot",
@@ -612,23 +668,7 @@ def performance_doc(report: dict, extra: dict, evolution: dict | None,
                     "the voxels, so that generation is the slowest however few robots it "
                     "simulates; selection, with the voxel cost in the fitness, shrinks them.")
     if recorded:
-        lines += [
-            "",
-            "## The evolutions at the paper's scale",
-            "",
-            "The results runs kept in `records/results/` (`metrics.csv`: each generation's wall "
-            "time, summed), each on 2 worker processes on the 2-core machine of its day, some "
-            "beside other work (test suites, benchmarks, another run), so the fastest is the "
-            "nearest to the machine's own rate. Evaluations count the population; the GA's "
-            "cache simulates each distinct genome once.",
-            "",
-            "| run | generations | wall h | evaluations / s | robots simulated / s | "
-            "wall h of all generations at that rate |",
-            "|---|---|---|---|---|---|",
-        ]
-        lines += [f"| {r['run']} | {r['generations']} of {r['planned']} | {r['wall_h']:.2f} | "
-                  f"{r['evaluations_per_s']:.2f} | {r['simulated_per_s']:.2f} | "
-                  f"{r['planned_h']:.2f} |" for r in recorded]
+        lines += ["", *recorded_section(recorded)]
     return "\n".join([*lines, *sections]) + "\n"
 
 
@@ -650,7 +690,14 @@ def main() -> None:
     parser.add_argument("--gpu", type=Path, help="JSON of benchmarks/batched_bonds.py, for --doc")
     parser.add_argument("--settle-rest", type=Path, nargs="+",
                         help="JSONs of benchmarks/settle_rest.py (one per --body), for --doc")
+    parser.add_argument("--records", action="store_true",
+                        help="print only the Result bullets and the section on the paper-size "
+                             "runs kept in records/ (nothing is measured)")
     args = parser.parse_args()
+    if args.records:
+        recorded = all_recorded_evolutions()
+        print("\n".join([*recorded_bullets(recorded), "", *recorded_section(recorded)]))
+        return
     table = robots()
     names = args.robots or (list(DOC_ROBOTS) if args.doc else
                             ["paper_tripod", "paper_biped", "paper_multiped", "block_7x7x7_soft"])
@@ -679,7 +726,7 @@ def main() -> None:
         if args.settle_rest:
             sections += _sibling("settle_rest").markdown_section(
                 [json.loads(path.read_text()) for path in args.settle_rest])
-        args.doc.write_text(performance_doc(report, extra, evolution, recorded_evolutions(),
+        args.doc.write_text(performance_doc(report, extra, evolution, all_recorded_evolutions(),
                                             sections))
         print(f"wrote {args.doc}")
 

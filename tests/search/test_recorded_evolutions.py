@@ -32,7 +32,7 @@ def test_rates_and_projection_come_from_the_generations_own_wall_times(tmp_path)
     _record(tmp_path / "3d_ff" / "seed_0", 0, [10.0, 20.0, 30.0, 40.0], [10, 9, 8, 7])
     _record(tmp_path / "3d_lstm" / "seed_3", 3, [50.0, 70.0], [10, 10])
     (tmp_path / "grow_regrow_ff" / "seed_0").mkdir(parents=True)  # not a paper-size condition
-    finished, unfinished = speed.recorded_evolutions(tmp_path)
+    finished, unfinished = speed.recorded_evolutions(tmp_path, ("3d_ff", "3d_lstm"), "serial")
     assert finished["run"] == "3d_ff seed 0" and finished["generations"] == 4
     assert finished["wall_h"] == pytest.approx(100.0 / 3600)
     assert finished["evaluations_per_s"] == pytest.approx(40 / 100.0)
@@ -41,3 +41,18 @@ def test_rates_and_projection_come_from_the_generations_own_wall_times(tmp_path)
     assert unfinished["run"] == "3d_lstm seed 3"
     assert (unfinished["generations"], unfinished["planned"]) == (2, 4)
     assert unfinished["planned_h"] == pytest.approx(2 * 120.0 / 3600)  # 4 generations at 60 s
+    assert finished["median_generation_s"] == pytest.approx(25.0)
+    assert finished["median_h"] == pytest.approx(4 * 25.0 / 3600)
+    assert unfinished["median_h"] == pytest.approx(4 * 60.0 / 3600)
+
+
+def test_only_the_given_conditions_count_and_bullets_cover_finished_runs(tmp_path):
+    _record(tmp_path / "3d_ff" / "seed_0", 0, [3600.0] * 4, [10] * 4)
+    _record(tmp_path / "2d_ff" / "seed_1", 1, [900.0, 1800.0, 900.0, 900.0], [10] * 4)
+    assert [r["run"] for r in speed.recorded_evolutions(tmp_path, ("2d_ff",))] == ["2d_ff seed 1"]
+    both = speed.recorded_evolutions(tmp_path, ("3d_ff", "2d_ff"), "one run per core")
+    bullets = speed.recorded_bullets(both)
+    assert len(bullets) == 2
+    assert "3D" in bullets[0] and "**4.00–4.00 h**" in bullets[0]
+    assert "2D" in bullets[1] and "**1.25–1.25 h**" in bullets[1]  # 4500 s
+    assert "median generation 1.00–1.00 h" in bullets[1]  # 4 x 900 s
