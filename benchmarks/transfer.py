@@ -26,6 +26,11 @@ it >= 80 % as far.
 ``--json ROOT/transfer.json``, scripts/results_report.py shows them beside each condition's
 best run (``--best-of records/paper --json records/paper/transfer.json``).
 
+``--each-run ROOT`` also measures the best robot of every finished run under ROOT
+(`mjregen.experiments.paper.finished_runs_robots`), named the same way, leaving out those
+already in the ``--json`` file: the report counts, per condition, the runs whose best robot
+transfers. ``--json`` keeps the entries of the file for robots not measured again.
+
 ``--assets DIR`` also measures every evolved walker the package ships (``DIR/nca/
 manifest.json``, ``DIR/robots/walkers/walkers.json``) and writes each one's measurements,
 the rule and the verdict into its manifest entry as "transfer" (`tests/test_assets.py`
@@ -47,7 +52,8 @@ from mjregen.grid import Robot
 from mjregen.physics import Physics
 from mjregen.tasks.bodies import body_physics
 from mjregen.validation.engine import PaperEngine
-from mjregen.validation.transfer import Transfer, measure_transfer, transfer_record
+from mjregen.validation.transfer import (Transfer, measure_transfer, read_measurements,
+                                         transfer_record)
 
 
 def _cell(value: float | None, digits: int = 2) -> str:
@@ -123,8 +129,16 @@ def main(argv: list[str] | None = None) -> int:
                         help="also measure the shipped walkers and record them (docstring)")
     parser.add_argument("--best-of", type=Path, metavar="ROOT",
                         help="also measure each condition's best robot of the runs under ROOT")
-    parser.add_argument("--json", type=Path)
+    parser.add_argument("--each-run", type=Path, metavar="ROOT",
+                        help="also measure the best robot of every finished run under ROOT "
+                             "not yet in --json")
+    parser.add_argument("--json", type=Path,
+                        help="write the measurements here (entries of other robots kept)")
     args = parser.parse_args(argv)
+    try:
+        kept = read_measurements(args.json) if args.json is not None else {}
+    except ValueError as error:
+        parser.error(str(error))
     given = Physics().replace(settle_time=args.settle, measured_time=args.duration)
     todo = [(name or Path(path).stem, Path(path), None, None, given)
             for name, _, path in (item.rpartition("=") for item in args.robots)]
@@ -135,6 +149,15 @@ def main(argv: list[str] | None = None) -> int:
         if not found:
             parser.error(f"--best-of {args.best_of}: no evolution runs there")
         todo += [(name, path, None, None, physics) for name, (path, physics) in found.items()]
+    if args.each_run is not None:
+        from mjregen.experiments.paper import finished_runs_robots
+
+        found = finished_runs_robots(args.each_run)
+        if not found:
+            parser.error(f"--each-run {args.each_run}: no finished evolution runs there")
+        named = {name for name, *_ in todo}
+        todo += [(name, path, None, None, physics) for name, (path, physics) in found.items()
+                 if name not in kept and name not in named]
     if args.assets is not None:
         todo += shipped_walkers(args.assets)
     try:
@@ -150,9 +173,9 @@ def main(argv: list[str] | None = None) -> int:
         print(markdown(rows[-1:], args.starts).splitlines()[-1], flush=True)
     print(markdown(rows, args.starts))
     if args.json is not None:
-        args.json.write_text(json.dumps(
-            [asdict(r) | {"distance": r.distance, "transfers": r.transfers} for r in rows],
-            indent=1))
+        kept.update((r.name, asdict(r) | {"distance": r.distance, "transfers": r.transfers})
+                    for r in rows)
+        args.json.write_text(json.dumps(list(kept.values()), indent=1))
     return 0
 
 

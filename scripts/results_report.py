@@ -16,8 +16,9 @@ Reads the evolution runs under --root (runs/results/<condition>/seed_<n>), the r
                                    (docs/quality_diversity.md, included), measured facts for
                                    discussion
 
-Each condition's best robot walked in the paper's engine is read from --root's transfer.json
-when it is there (`python benchmarks/transfer.py --voxelyze DIR --best-of ROOT --json
+Each condition's best robot walked in the paper's engine, and how many finished runs end on
+a robot that transfers, are read from --root's transfer.json when it is there (`python
+benchmarks/transfer.py --voxelyze DIR --best-of ROOT --each-run ROOT --json
 ROOT/transfer.json`; the engine is not shipped).
 
 It works on whatever exists: a condition without runs gets a "not run" line. The paper's
@@ -52,7 +53,7 @@ import numpy as np
 
 from mjregen.errors import MjregenError
 from mjregen.experiments import paper as ex
-from mjregen.validation.transfer import ENGINE, KEEP
+from mjregen.validation.transfer import ENGINE, KEEP, read_measurements
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER_GLOB = Path(os.environ.get("MJREGEN_PAPER", "paper"))  # a folder with the paper's LaTeX
@@ -159,24 +160,6 @@ def _rewalked(run: ex.RunInfo) -> float:
 TRANSFER_FILE = "transfer.json"  # in the results root: `benchmarks/transfer.py --best-of ROOT`
 
 
-def _transfer_measurements(root: Path) -> dict[str, dict]:
-    """The transfer measurements kept in ``root/transfer.json`` by robot name (its path
-    relative to `root`); empty without the file.
-
-    Raises:
-      ValueError: the file is not a list of measurements.
-    """
-    path = root / TRANSFER_FILE
-    if not path.is_file():
-        return {}
-    entries = json.loads(path.read_text())
-    if not isinstance(entries, list) or not all(isinstance(e, dict) and "name" in e
-                                                for e in entries):
-        raise ValueError(f"{path} is not a list of transfer measurements "
-                         "(benchmarks/transfer.py --json)")
-    return {entry["name"]: entry for entry in entries}
-
-
 def _engine_cell(measured: dict | None) -> str:
     """A best robot's walk in the paper's engine and whether it transfers, or why not."""
     if measured is None:
@@ -222,7 +205,7 @@ class Report:
         self.facts: list[str] = []
         self.runs = ex.list_runs(args.root)
         self.stats: dict[str, object] = {}
-        self.transfer = _transfer_measurements(args.root)
+        self.transfer = read_measurements(args.root / TRANSFER_FILE)
 
     def add(self, *lines: str) -> None:
         self.lines.extend(lines)
@@ -231,6 +214,18 @@ class Report:
         """The name of `run`'s best robot in ``transfer.json``: its path relative to the
         root (`mjregen.experiments.paper.best_robots`)."""
         return run.best_files()[1].relative_to(self.args.root).as_posix()
+
+    def _transfer_count(self, runs: list[ex.RunInfo]) -> str:
+        """How many finished runs' best robots transfer, of those measured in
+        ``transfer.json`` (`benchmarks/transfer.py --each-run`)."""
+        finished = [r for r in runs if r.complete]
+        measured = [self.transfer[n] for n in map(self._robot_name, finished)
+                    if n in self.transfer]
+        if not measured:
+            return "not measured"
+        yes = sum(bool(m.get("transfers")) for m in measured)
+        return f"{yes} of {len(measured)}" + (f" measured ({len(finished)} finished)"
+                                              if len(measured) < len(finished) else "")
 
     def image(self, path: Path, alt: str) -> str:
         return f"![{alt}]({_rel(path, self.doc_dir)})"
@@ -366,12 +361,13 @@ class Report:
                      "| condition | runs | generations | final best fitness of each run (mean) | best run: "
                      "fitness, distance (voxel lengths), seed, generation | its robot today: "
                      f"distance from {REWALK_STARTS} symmetry-broken starts | in the paper's "
-                     "engine (transfer check) | unstable / failed evaluations |",
-                     "|---|---|---|---|---|---|---|---|")
+                     "engine (transfer check) | finished runs whose best robot transfers | "
+                     "unstable / failed evaluations |",
+                     "|---|---|---|---|---|---|---|---|---|")
             for name in names:
                 runs = self.runs.get(name)
                 if not runs:
-                    self.add(f"| {name} | not run | | | | | | |")
+                    self.add(f"| {name} | not run | | | | | | | |")
                     continue
                 stats = self.stats[name]
                 top = ex.best_run(runs)
@@ -383,7 +379,7 @@ class Report:
                          f"{fmt_distance(_best_distance(top), 4)}, seed {top.seed}, "
                          f"gen {top.best_generation} | {fmt_distance(_rewalked(top), 4)} | "
                          f"{_engine_cell(self.transfer.get(self._robot_name(top)))} | "
-                         f"{unstable} / {failed} |")
+                         f"{self._transfer_count(runs)} | {unstable} / {failed} |")
             self.add("")
             if len(groups) == 2:
                 self.facts.append(_network_comparison(dim, *(self.runs[n] for n in names)))

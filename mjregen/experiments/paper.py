@@ -342,17 +342,26 @@ def best_run(runs: list[RunInfo]) -> RunInfo:
     return max(runs, key=lambda r: (r.best_fitness, -r.seed))
 
 
+def _robot_entry(root: str | Path, run: RunInfo) -> tuple[str, tuple[Path, Physics]]:
+    """A run's best robot as (its path relative to `root`, (path, `RunInfo.robot_physics`))."""
+    path = run.best_files()[1]
+    return path.relative_to(Path(root)).as_posix(), (path, run.robot_physics)
+
+
 def best_robots(root: str | Path = DEFAULT_ROOT) -> dict[str, tuple[Path, Physics]]:
     """Each condition's best robot under `root`: the best generation's robot of its
     `best_run`, as {path relative to `root`: (path, the physics it walks in,
     `RunInfo.robot_physics`)} (the names `benchmarks/transfer.py --best-of` gives its
     measurements and the results report looks them up by)."""
-    robots = {}
-    for runs in list_runs(root).values():
-        run = best_run(runs)
-        path = run.best_files()[1]
-        robots[path.relative_to(Path(root)).as_posix()] = (path, run.robot_physics)
-    return robots
+    return dict(_robot_entry(root, best_run(runs)) for runs in list_runs(root).values())
+
+
+def finished_runs_robots(root: str | Path = DEFAULT_ROOT) -> dict[str, tuple[Path, Physics]]:
+    """The best robot of every finished run under `root`, named as in `best_robots`
+    (`benchmarks/transfer.py --each-run`: how many runs of a condition end on a robot that
+    transfers)."""
+    return dict(_robot_entry(root, run) for runs in list_runs(root).values()
+                for run in runs if run.complete)
 
 
 def list_regen_runs(root: str | Path = DEFAULT_ROOT) -> list[tuple[str, str, Path]]:

@@ -8,8 +8,10 @@ start or one orientation is an artefact of the simulation, not a gait.
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass
 from datetime import UTC, datetime
+from pathlib import Path
 
 import numpy as np
 
@@ -118,3 +120,21 @@ def best_transferring(rows: list[Transfer]) -> Transfer | None:
     None when none does."""
     return max((row for row in rows if row.transfers), key=lambda row: row.distance,
                default=None)
+
+
+def read_measurements(path: str | Path) -> dict[str, dict]:
+    """Transfer measurements kept in a JSON file (`benchmarks/transfer.py --json`: a list of
+    entries with a "name") by name; empty if the file is not there.
+
+    Raises:
+      ValueError: the file holds something else.
+    """
+    path = Path(path)
+    if not path.is_file():
+        return {}
+    entries = json.loads(path.read_text())
+    if not isinstance(entries, list) or not all(isinstance(e, dict) and "name" in e
+                                                for e in entries):
+        raise ValueError(f"{path} is not a list of transfer measurements "
+                         "(benchmarks/transfer.py --json)")
+    return {entry["name"]: entry for entry in entries}

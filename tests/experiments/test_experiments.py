@@ -378,7 +378,14 @@ def test_results_report_writes_every_section(results, tmp_path, monkeypatch):
     name = next(n for n in best if n.startswith("3d_ff/"))
     assert best[name][0] == ex.best_run(ex.list_runs(results)["3d_ff"]).best_files()[1]
     transfer = results / results_report.TRANSFER_FILE
+    each = ex.finished_runs_robots(results)  # every finished run's best robot, named alike
+    assert name in each and all(n.startswith(("2d_", "3d_")) for n in each)
+    assert {n for n in each if n.startswith("3d_ff/")} == {
+        run.best_files()[1].relative_to(results).as_posix()
+        for run in ex.list_runs(results)["3d_ff"]}
+    other = next(n for n in each if n.startswith("3d_ff/") and n != name)
     transfer.write_text(json.dumps([{"name": name, "engine": 12.5, "transfers": True},
+                                    {"name": other, "engine": 1.0, "transfers": False},
                                     {"name": "3d_ff/seed_9/best/gen_0001.npy", "engine": 1.0,
                                      "transfers": False}]))
     try:
@@ -389,8 +396,8 @@ def test_results_report_writes_every_section(results, tmp_path, monkeypatch):
     text = out.read_text()
     rows = {line.split(" | ")[0]: line for line in text.splitlines()
             if line.startswith(("| 3d_ff | 2 |", "| 2d_ff | 2 |"))}
-    assert "| 12.5 (transfers) |" in rows["| 3d_ff"]
-    assert "| not measured |" in rows["| 2d_ff"]
+    assert "| 12.5 (transfers) | 1 of 2 |" in rows["| 3d_ff"]  # the other run's does not
+    assert "| not measured | not measured |" in rows["| 2d_ff"]
     for heading in ("## How to reproduce", "## Settings", "## Fitness over generations",
                     "## Shipped NCAs", "## Regeneration", "The paper's Table 1", "## Discussion"):
         assert heading in text, heading

@@ -17,6 +17,7 @@ from mjregen.validation.transfer import (
     KEEP,
     Transfer,
     measure_transfer,
+    read_measurements,
     rotations,
 )
 
@@ -145,3 +146,16 @@ def test_a_sheet_is_measured_for_its_times_in_mjregen_and_in_the_engine(tmp_path
     row = measure_transfer(sheet, starts=1, engine=engine, physics=quick)
     assert row.starts == [simulate(sheet, physics=quick).distance]
     assert row.engine == pytest.approx(100 * 0.9 + 10 * 0.05 + 0.02)
+
+
+def test_kept_measurements_are_read_by_name_and_anything_else_is_refused(tmp_path):
+    path = tmp_path / "transfer.json"
+    assert read_measurements(path) == {}  # nothing measured yet
+    path.write_text('[{"name": "3d_ff/seed_0/best/gen_0001.npy", "engine": 2.0}, '
+                    '{"name": "b", "engine": 1.0}]')
+    kept = read_measurements(path)
+    assert list(kept) == ["3d_ff/seed_0/best/gen_0001.npy", "b"] and kept["b"]["engine"] == 1.0
+    for bad in ('{"name": "a"}', '[{"engine": 1.0}]', '[1, 2]'):
+        path.write_text(bad)
+        with pytest.raises(ValueError, match="transfer.json is not a list of transfer"):
+            read_measurements(path)
