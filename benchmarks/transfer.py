@@ -13,13 +13,15 @@ name it. Each robot is walked in mjregen
   - with its grid rotated by 90, 180 and 270 degrees about z (start 0 each; 2D: mirrored),
   - from the exact start (start shift 0: every voxel on its grid position, what every
     evolution scored before the start shift),
+  - from start 0 with half the physics' time step (a walk that the integration makes
+    changes with the step),
 and in the paper's engine for the same settle and walk (3D grids: a 2D run's robots are
 sheets, 3D grids, walked for the 2D times; a 2D grid in the x-z plane is not run there), by
 `mjregen.validation.transfer.measure_transfer`. ``--settle`` and ``--duration`` set the times of
 the ROBOTs given (a sheet of a 2D run: ``--settle 1 --duration 0.25``); ``--best-of`` and
 ``--assets`` take each robot's own. A robot transfers (`TRANSFER_RULE`) when the
-fresh starts and the rotations keep >= 90 % of its distance on average and the engine walks
-it >= 80 % as far.
+fresh starts, the rotations and the finer step keep >= 90 % of its distance on average and
+the engine walks it >= 80 % as far.
 
 ``--best-of ROOT`` also measures each condition's best robot of the evolution runs under ROOT
 (`mjregen.experiments.paper.best_robots`), named by its path relative to ROOT; written with
@@ -52,8 +54,8 @@ from mjregen.grid import Robot
 from mjregen.physics import Physics
 from mjregen.tasks.bodies import body_physics
 from mjregen.validation.engine import PaperEngine
-from mjregen.validation.transfer import (Transfer, measure_transfer, read_measurements,
-                                         transfer_record)
+from mjregen.validation.transfer import (FINER_STEP, Transfer, measure_transfer,
+                                         read_measurements, transfer_record)
 
 
 def _cell(value: float | None, digits: int = 2) -> str:
@@ -68,14 +70,15 @@ def markdown(rows: list[Transfer], starts: int) -> str:
     """The table of docs/transfer.md."""
     lines = [f"| robot | voxels | mirror plane | distance: {starts} starts, mean (min-max) | "
              f"{starts} fresh starts | kept | rotated 90/180/270 | kept | exact start | "
-             "paper's engine | engine / distance | transfers |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             f"step × {FINER_STEP:g} | kept | paper's engine | engine / distance | transfers |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         lines.append(
             f"| {r.name} | {r.voxels} | {', '.join(r.mirror_axes) or 'none'} | "
             f"{_spread(r.starts)} | {_spread(r.fresh)} | {r.fresh_kept:.0%} | "
             f"{' / '.join(f'{d:.2f}' for d in r.rotated)} | {r.rotated_kept:.0%} | "
-            f"{r.exact:.2f} | {_cell(r.engine)} | {_cell(r.engine_ratio)} | "
+            f"{r.exact:.2f} | {r.finer_step:.2f} | {r.finer_step_kept:.0%} | "
+            f"{_cell(r.engine)} | {_cell(r.engine_ratio)} | "
             f"{'yes' if r.transfers else 'no'} |")
     return "\n".join(lines)
 

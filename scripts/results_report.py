@@ -53,7 +53,7 @@ import numpy as np
 
 from mjregen.errors import MjregenError
 from mjregen.experiments import paper as ex
-from mjregen.validation.transfer import ENGINE, KEEP, read_measurements
+from mjregen.validation.transfer import ENGINE, FINER_STEP, KEEP, read_measurements
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER_GLOB = Path(os.environ.get("MJREGEN_PAPER", "paper"))  # a folder with the paper's LaTeX
@@ -333,12 +333,13 @@ class Report:
                  "recorded, from the start its evaluations used (runs before the start shift: "
                  "the exact start). The best run's robot is walked today from symmetry-broken "
                  "starts, and in the paper's engine by `python benchmarks/transfer.py "
-                 f"--voxelyze DIR --best-of ROOT --json ROOT/{TRANSFER_FILE}` (3D grids: 3D "
-                 "robots and 2D sheets; the engine is not shipped, so the report reads the measurements kept beside the "
-                 "runs, and says 'not measured' where none is kept for that robot); the "
-                 f"transfer check: fresh starts and turned copies keep at least {KEEP:.0%} of "
-                 f"its distance and the engine walks it at least {ENGINE:.0%} as far "
-                 "(docs/transfer.md).",
+                 f"--voxelyze DIR --best-of ROOT --each-run ROOT --json ROOT/{TRANSFER_FILE}` "
+                 "(3D grids: 3D robots and 2D sheets; the engine is not shipped, so the report "
+                 "reads the measurements kept beside the runs, and says 'not measured' where "
+                 "none is kept for that robot; `--each-run` measures every finished run's best "
+                 "robot); the transfer check: fresh starts, turned copies and a walk at "
+                 f"{FINER_STEP:g} of the time step keep at least {KEEP:.0%} of its distance and "
+                 f"the engine walks it at least {ENGINE:.0%} as far (docs/transfer.md).",
                  "")
         for dim in (2, 3):
             names = [f"{dim}d_{k}" for k in ex.NETS]

@@ -157,11 +157,11 @@ WALKERS = shipped_walkers()
 def test_shipped_walkers_keep_their_walk_from_fresh_starts_and_turned(name):
     """The mjregen side of the transfer check (benchmarks/transfer.py): with today's default
     physics the walker's starts of seed 0 walk what its record says, three fresh starts
-    (seed 1) and its grid turned by 90, 180 and 270 degrees about z keep >= 90 % of its
-    recorded distance, and the paper's engine walked it >= 80 % as far (recorded: the
-    engine is not part of the package)."""
+    (seed 1), its grid turned by 90, 180 and 270 degrees about z and start 0 at half the
+    time step keep >= 90 % of its recorded distance, and the paper's engine walked it >=
+    80 % as far (recorded: the engine is not part of the package)."""
     from mjregen.physics.simulation import simulate_starts
-    from mjregen.validation.transfer import ENGINE, KEEP, TRANSFER_RULE, rotations
+    from mjregen.validation.transfer import ENGINE, FINER_STEP, KEEP, TRANSFER_RULE, rotations
 
     path, record = WALKERS[name]
     robot = Robot.load(path)
@@ -176,4 +176,8 @@ def test_shipped_walkers_keep_their_walk_from_fresh_starts_and_turned(name):
     turned = [simulate(r).distance for r in rotations(robot)]
     assert turned == pytest.approx(record["rotated"], rel=1e-9)
     assert np.mean(turned) >= KEEP * distance
+    finer = simulate(robot, physics=Physics().replace(
+        timestep_safety=FINER_STEP * Physics().scene.timestep_safety)).distance
+    assert finer == pytest.approx(record["finer_step"], rel=1e-9)
+    assert finer >= KEEP * distance
     assert record["engine"] >= ENGINE * distance
