@@ -449,6 +449,43 @@ class Case:
         return replace(self.run, physics=self.run.physics.replace(timestep_safety=safety))
 
 
+def _shape_cases(tripod: Robot, zeta_robot: Robot, paper: Physics, short: dict) -> list[Case]:
+    """The stability study's cases of extreme shapes, starts and motions (`short` window)."""
+    shapes = []
+    for code in (Material.SOFT, Material.HARD):
+        shapes.append(Case(f"single voxel {code.name.lower()}",
+                          Run(Robot.box((1, 1, 1), code), paper, **short)))
+    shapes.append(Case("tower 1x1x7 hard", Run(Robot.box((1, 1, 7), 2),
+                                              paper, **short)))
+    shapes.append(Case("tower 1x1x7 muscle+ 50%", Run(
+        Robot.box((1, 1, 7), 3),
+        Physics(materials=muscle_strain(0.5), scene=replace(paper.scene, waveform="symmetric"),
+                pipeline=paper.pipeline),
+        **short)))
+    shapes.append(Case("cantilever 10 hard clamped", Run(
+        Robot.box((10, 1, 1), 2), paper, elevation=5e-3,
+        clamped=((1, 1, 1),), **short)))
+    shapes.append(Case("cantilever 10 soft clamped", Run(
+        Robot.box((10, 1, 1), 1), paper, elevation=5e-3,
+        clamped=((1, 1, 1),), **short)))
+    shapes.append(Case("tripod dropped 5 L", Run(tripod, paper, elevation=5e-3, **short)))
+    shapes.append(Case("hard block 4^3 dropped 5 L", Run(Robot.box((4,) * 3, 2), paper, elevation=5e-3,
+                                                        **short)))
+    shapes.append(Case("muscle+ block 4^3 50% symmetric", Run(
+        Robot.box((4,) * 3, 3), Physics(materials=muscle_strain(0.5),
+                             scene=replace(paper.scene, waveform="symmetric"),
+                             pipeline=paper.pipeline), **short)))
+    # resting blocks are symmetric and stay unexcited; kicked ones show the network's limit
+    for code in (Material.SOFT, Material.HARD):
+        shapes.append(Case(f"block 4^3 {code.name.lower()} kicked 1 mm/s", Run(
+            Robot.box((4,) * 3, code), paper, kick=1e-3, **short)))
+    shapes.append(Case("mixed block 5^3 kicked 1 mm/s", Run(zeta_robot, paper, kick=1e-3,
+                                                          **short)))
+    shapes.append(Case("biped", Run(paper_robot("biped"), paper, **short)))
+    shapes.append(Case("2D sheet", Run(sheet_2d(), paper, settle=0.2, measured=0.1)))
+    return shapes
+
+
 def stability_cases(quick: bool = False) -> list[Case]:
     """The stiff and extreme cases of the stability study."""
     tripod = paper_robot("tripod")
@@ -481,37 +518,7 @@ def stability_cases(quick: bool = False) -> list[Case]:
         if code != Material.EMPTY:
             cases.append(Case(f"block 7^3 {code.name.lower()}", Run(Robot.box((7,) * 3, code), paper,
                                                                     **short)))
-    for code in (Material.SOFT, Material.HARD):
-        cases.append(Case(f"single voxel {code.name.lower()}",
-                          Run(Robot.box((1, 1, 1), code), paper, **short)))
-    cases.append(Case("tower 1x1x7 hard", Run(Robot.box((1, 1, 7), 2),
-                                              paper, **short)))
-    cases.append(Case("tower 1x1x7 muscle+ 50%", Run(
-        Robot.box((1, 1, 7), 3),
-        Physics(materials=muscle_strain(0.5), scene=replace(paper.scene, waveform="symmetric"),
-                pipeline=paper.pipeline),
-        **short)))
-    cases.append(Case("cantilever 10 hard clamped", Run(
-        Robot.box((10, 1, 1), 2), paper, elevation=5e-3,
-        clamped=((1, 1, 1),), **short)))
-    cases.append(Case("cantilever 10 soft clamped", Run(
-        Robot.box((10, 1, 1), 1), paper, elevation=5e-3,
-        clamped=((1, 1, 1),), **short)))
-    cases.append(Case("tripod dropped 5 L", Run(tripod, paper, elevation=5e-3, **short)))
-    cases.append(Case("hard block 4^3 dropped 5 L", Run(Robot.box((4,) * 3, 2), paper, elevation=5e-3,
-                                                        **short)))
-    cases.append(Case("muscle+ block 4^3 50% symmetric", Run(
-        Robot.box((4,) * 3, 3), Physics(materials=muscle_strain(0.5),
-                             scene=replace(paper.scene, waveform="symmetric"),
-                             pipeline=paper.pipeline), **short)))
-    # resting blocks are symmetric and stay unexcited; kicked ones show the network's limit
-    for code in (Material.SOFT, Material.HARD):
-        cases.append(Case(f"block 4^3 {code.name.lower()} kicked 1 mm/s", Run(
-            Robot.box((4,) * 3, code), paper, kick=1e-3, **short)))
-    cases.append(Case("mixed block 5^3 kicked 1 mm/s", Run(zeta_robot, paper, kick=1e-3,
-                                                          **short)))
-    cases.append(Case("biped", Run(paper_robot("biped"), paper, **short)))
-    cases.append(Case("2D sheet", Run(sheet_2d(), paper, settle=0.2, measured=0.1)))
+    cases += _shape_cases(tripod, zeta_robot, paper, short)
     if quick:
         cases = [c for c in cases if c.run.robot.n_voxels <= 16]
     return cases
@@ -843,8 +850,14 @@ def report_text(accuracy: list[dict], orders: list[dict], stability: list[dict],
                 engine: bool) -> str:
     """docs/accuracy.md from the studies' rows; `minutes`: the wall time of a run of every
     study, None when some were taken from their CSVs."""
-    timing = (f"{minutes:.0f} min here" if minutes is not None
-              else "about 20 min here for every study")
+    return "".join([_work_precision_section(accuracy, orders, minutes, engine),
+                    _chaos_section(chaos), walker_section(walkers), "\n\n",
+                    _skips_section(skips), _stability_section(stability)])
+
+
+def _defaults_table(accuracy: list[dict]) -> tuple[str, str]:
+    """The table of each robot at the default step, mjregen beside the engine, and the
+    sentence comparing them."""
     ours = _default_rows(accuracy, "euler", 0.75)
     theirs = _default_rows(accuracy, "paper engine", PAPER_DT_FRACTION)
     lines = ["| robot | voxels | mjregen: dt | CPU s | fitness error (L) | error % | "
@@ -870,63 +883,20 @@ def report_text(accuracy: list[dict], orders: list[dict], stability: list[dict],
                 f"default step over this window, and its fitness error (each against its own "
                 f"reference) is no larger than the engine's on {smaller} of {len(shared)}."
                 ) if shared else ""
+    return defaults, compared
+
+
+def _work_precision_section(accuracy: list[dict], orders: list[dict], minutes: float | None,
+                            engine: bool) -> str:
+    """The report's head and its section "Work against precision"."""
+    timing = (f"{minutes:.0f} min here" if minutes is not None
+              else "about 20 min here for every study")
+    defaults, compared = _defaults_table(accuracy)
     order_lines = ["| robot | integrator | points | COM order | fitness order |",
                    "|---|---|---|---|---|"]
     order_lines += [f"| {o['robot']} | {o['integrator']} | {o['points']} | {o['com_order']} | "
                     f"{o['fitness_order']} |" for o in orders
                     if o["integrator"] in ("euler", "rk4", "paper engine")]
-    chaos_lines = ["| robot | default | std over shifted starts: "
-                   + ", ".join(f"{p:g} L" for p in PERTURBATIONS)
-                   + " | 8 safeties: median (range) | "
-                   + " | ".join(f"step halved 0 … {HALVINGS} times, {r} rule"
-                                for r in LADDERS)
-                   + " | limit (spread) | default − limit |",
-                   "|---" * (6 + len(LADDERS)) + "|"]
-    sentences = []
-    for c in chaos:
-        shifts = ", ".join(c[f"shift_{p:g}_std"] for p in PERTURBATIONS)
-        ladders = " | ".join(c[f"ladder_{r}"] for r in LADDERS)
-        chaos_lines.append(
-            f"| {c['robot']} | {c['default']} | {shifts} | {c['safeties_median']} "
-            f"({c['safeties_min']}–{c['safeties_max']}) | {ladders} | {c['converged']} "
-            f"({c['converged_spread']}) | {c['default_error']} |")
-        error, limit = float(c["default_error"]), float(c["converged"])
-        sentences.append(
-            f"- **{c['robot']}**: at the default step its distance is {float(c['default']):.2f}, "
-            f"{100 * error / limit:.1f} % from the {limit:.2f} that shorter steps converge to "
-            f"(to {float(c['converged_spread']):.2g}); differences of fitness below about "
-            f"{max(error, float(c['safeties_max']) - float(c['safeties_min'])):.2g} voxel "
-            "lengths between such robots are the time step's, not the robots'.")
-    from mjregen.validation.reference import REFERENCE
-
-    fidelity_lines = ["| rule | " + " | ".join(c["robot"] for c in chaos) + " |",
-                      "|---|" + "---|" * len(chaos)]
-    ratios: dict[str, list[float]] = {}
-    for rule in LADDERS:
-        cells = []
-        for c in chaos:
-            ladder = [float(x) for x in c[f"ladder_{rule}"].split()]
-            pair = (ladder[0] / REFERENCE[c["robot"]]["distance"],
-                    ladder[CONVERGED_FROM] / REFERENCE[c["robot"]]["distance"])
-            ratios.setdefault(rule, []).extend(pair)
-            cells.append(f"{pair[0]:.2f} / {pair[1]:.2f}")
-        fidelity_lines.append(f"| {rule} | " + " | ".join(cells) + " |")
-    engine_band = f"{min(ratios['momentum']):.2f}–{max(ratios['momentum']):.2f}"
-    fixed_low = min(ratios["fixed"])
-    skip_lines = ["| what is left out | robot | CPU s with the work | without | saved | "
-                  "largest final qpos difference |", "|---|---|---|---|---|---|"]
-    skip_lines += [f"| {r['skip']} | {r['robot']} | {r['with_cpu_s']} | {r['without_cpu_s']} | "
-                   f"{r['saved']} | {r['max_qpos_difference']} |" for r in skips]
-    first = [float(c[f"shift_{PERTURBATIONS[0]:g}_std"]) for c in chaos]
-    low, high = min(first), max(first)
-    top = max(float(c[f"shift_{PERTURBATIONS[-1]:g}_std"]) for c in chaos)
-    stable = [r for r in stability if str(r["default_stable"]) == "True"]
-    margins = [float(r["margin"]) for r in stability if r["margin"] not in ("", None)]
-    stability_lines = ["| case | voxels | ζ | default dt | stable at the default | largest "
-                       "stable safety | margin |", "|---|---|---|---|---|---|---|"]
-    stability_lines += [f"| {r['case']} | {r['voxels']} | {r['zeta']} | {r['default_dt']} | "
-                        f"{r['default_stable']} | {r['max_stable_safety']} | {r['margin']} |"
-                        for r in stability]
     engine_note = ("The paper's engine runs the same robots over the same window at step "
                    f"fractions {', '.join(f'{f:g}' for f in ENGINE_FRACTIONS)} of its own "
                    f"stability rule (the paper's {PAPER_DT_FRACTION}), against itself at "
@@ -963,7 +933,59 @@ steps; Euler is first order, RK4 here runs contacts and a per-step muscle comman
 
 {chr(10).join(order_lines)}
 
-## How much of a fitness is physics
+"""
+
+
+def _chaos_table(chaos: list[dict]) -> tuple[list[str], list[str]]:
+    """The chaos studies' table (lines) and one sentence per robot."""
+    chaos_lines = ["| robot | default | std over shifted starts: "
+                   + ", ".join(f"{p:g} L" for p in PERTURBATIONS)
+                   + " | 8 safeties: median (range) | "
+                   + " | ".join(f"step halved 0 … {HALVINGS} times, {r} rule"
+                                for r in LADDERS)
+                   + " | limit (spread) | default − limit |",
+                   "|---" * (6 + len(LADDERS)) + "|"]
+    sentences = []
+    for c in chaos:
+        shifts = ", ".join(c[f"shift_{p:g}_std"] for p in PERTURBATIONS)
+        ladders = " | ".join(c[f"ladder_{r}"] for r in LADDERS)
+        chaos_lines.append(
+            f"| {c['robot']} | {c['default']} | {shifts} | {c['safeties_median']} "
+            f"({c['safeties_min']}–{c['safeties_max']}) | {ladders} | {c['converged']} "
+            f"({c['converged_spread']}) | {c['default_error']} |")
+        error, limit = float(c["default_error"]), float(c["converged"])
+        sentences.append(
+            f"- **{c['robot']}**: at the default step its distance is {float(c['default']):.2f}, "
+            f"{100 * error / limit:.1f} % from the {limit:.2f} that shorter steps converge to "
+            f"(to {float(c['converged_spread']):.2g}); differences of fitness below about "
+            f"{max(error, float(c['safeties_max']) - float(c['safeties_min'])):.2g} voxel "
+            "lengths between such robots are the time step's, not the robots'.")
+    return chaos_lines, sentences
+
+
+def _chaos_section(chaos: list[dict]) -> str:
+    """The section "How much of a fitness is physics" (the chaos studies' rows)."""
+    chaos_lines, sentences = _chaos_table(chaos)
+    from mjregen.validation.reference import REFERENCE
+
+    fidelity_lines = ["| rule | " + " | ".join(c["robot"] for c in chaos) + " |",
+                      "|---|" + "---|" * len(chaos)]
+    ratios: dict[str, list[float]] = {}
+    for rule in LADDERS:
+        cells = []
+        for c in chaos:
+            ladder = [float(x) for x in c[f"ladder_{rule}"].split()]
+            pair = (ladder[0] / REFERENCE[c["robot"]]["distance"],
+                    ladder[CONVERGED_FROM] / REFERENCE[c["robot"]]["distance"])
+            ratios.setdefault(rule, []).extend(pair)
+            cells.append(f"{pair[0]:.2f} / {pair[1]:.2f}")
+        fidelity_lines.append(f"| {rule} | " + " | ".join(cells) + " |")
+    engine_band = f"{min(ratios['momentum']):.2f}–{max(ratios['momentum']):.2f}"
+    fixed_low = min(ratios["fixed"])
+    first = [float(c[f"shift_{PERTURBATIONS[0]:g}_std"]) for c in chaos]
+    low, high = min(first), max(first)
+    top = max(float(c[f"shift_{PERTURBATIONS[-1]:g}_std"]) for c in chaos)
+    return f"""## How much of a fitness is physics
 The paper's window (0.05 + 0.5 s), each paper robot: the default run; {PERTURBED_RUNS} runs
 from starts whose voxels are shifted by normal random amounts of each of
 {', '.join(f'{p:g}' for p in PERTURBATIONS)} voxel lengths; the 8 time-step safeties
@@ -999,9 +1021,16 @@ falls to {fixed_low:.2f} at the shorter one. So the default keeps the engine's r
 Selection in an evolution compares robots at one step, so what matters is whether their
 differences exceed the step's effect above.
 
-{walker_section(walkers)}
+"""
 
-## What a scene leaves out
+
+def _skips_section(skips: list[dict]) -> str:
+    """The section "What a scene leaves out"."""
+    skip_lines = ["| what is left out | robot | CPU s with the work | without | saved | "
+                  "largest final qpos difference |", "|---|---|---|---|---|---|"]
+    skip_lines += [f"| {r['skip']} | {r['robot']} | {r['with_cpu_s']} | {r['without_cpu_s']} | "
+                   f"{r['saved']} | {r['max_qpos_difference']} |" for r in skips]
+    return f"""## What a scene leaves out
 The voxel plugin does only the work a robot needs: no muscle drive without muscles; no
 collision stage where no two surface voxels are more than `collision_hops` bonds apart (no
 pair could ever collide); and the step is its own bond network's, so a robot without hard
@@ -1019,7 +1048,19 @@ move as soft voxels do (to rounding: their bonds come first in the bond order); 
 voxel in a soft block shortens its step only by what that voxel's bonds need. The tests
 check each (tests/physics/test_engine_floor.py, tests/physics/test_timestep.py, tests/physics/test_physics_mechanics.py).
 
-## Stability
+"""
+
+
+def _stability_section(stability: list[dict]) -> str:
+    """The section "Stability"."""
+    stable = [r for r in stability if str(r["default_stable"]) == "True"]
+    margins = [float(r["margin"]) for r in stability if r["margin"] not in ("", None)]
+    stability_lines = ["| case | voxels | ζ | default dt | stable at the default | largest "
+                       "stable safety | margin |", "|---|---|---|---|---|---|---|"]
+    stability_lines += [f"| {r['case']} | {r['voxels']} | {r['zeta']} | {r['default_dt']} | "
+                        f"{r['default_stable']} | {r['max_stable_safety']} | {r['margin']} |"
+                        for r in stability]
+    return f"""## Stability
 Every case at its default step, and the largest stable `timestep_safety` found by
 bracketing and bisection (a run is stable when no state is NaN, MuJoCo does not warn and
 no voxel runs faster than 5 m/s, ending below {END_SPEED} m/s): {len(stable)} of
@@ -1079,7 +1120,8 @@ def write_report(out: Path, n_jobs: int, voxelyze: Path | None, reuse: bool = Fa
 
 # ---------------------------------------------------------------------------- main
 
-def main(argv: list[str] | None = None) -> None:
+def _parser() -> argparse.ArgumentParser:
+    """The command line of this script."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("study", choices=["report", "accuracy", "stability", "chaos", "skips",
                                           "plot"])
@@ -1106,6 +1148,55 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--quick", action="store_true", help="small robots only")
     parser.add_argument("--from-log", action="store_true",
                         help="accuracy: rebuild the tables from OUT/accuracy_runs.jsonl")
+    return parser
+
+
+def _accuracy_study(args: argparse.Namespace, suffix: str) -> None:
+    """The accuracy study alone: its runs (or its log), tables and figure into OUT."""
+    jobs = accuracy_jobs(variants=tuple(args.variants.split(",")),
+                         full_window=args.full_window, quick=args.quick)
+    if args.robots:
+        jobs = [job for job in jobs if job[0][0] in args.robots.split(",")]
+    log = args.out / f"accuracy_runs{suffix}.jsonl"
+    if args.from_log:
+        results = load_log(log)
+    else:
+        log.unlink(missing_ok=True)
+        results = run_jobs(jobs, args.jobs, cost=_run_cost, log=log)
+    rows = accuracy_rows(results)
+    write_csv(args.out / f"accuracy_table{suffix}.csv", rows, ACCURACY_FIELDS)
+    orders = convergence_orders(rows)
+    write_csv(args.out / f"accuracy_orders{suffix}.csv", orders)
+    plot_work_precision(rows, args.out / f"accuracy_work_precision{suffix}.png")
+    print(markdown(rows, ACCURACY_FIELDS))
+    print(markdown(orders, list(orders[0])))
+
+
+def _stability_study(args: argparse.Namespace, suffix: str) -> None:
+    """The stability study alone, its cases on `args.jobs` processes, its table into OUT."""
+    cases = stability_cases(quick=args.quick)
+    tasks = sorted(((c, args.rule) for c in cases),
+                   key=lambda t: -t[0].run.robot.n_voxels
+                   * math.sqrt(max(m.youngs_modulus for m in t[0].run.physics.materials
+                                   .values())))
+    rows = []
+    if args.jobs <= 1:
+        for task in tasks:
+            rows.append(_stability_job(task))
+            print(rows[-1], flush=True)
+    else:
+        with multiprocessing.get_context("fork").Pool(args.jobs) as pool:
+            for row in pool.imap_unordered(_stability_job, tasks):
+                rows.append(row)
+                print(row, flush=True)
+    order = {c.name: i for i, c in enumerate(cases)}
+    rows.sort(key=lambda r: order[r["case"]])
+    write_csv(args.out / f"accuracy_stability{suffix}.csv", rows, STABILITY_FIELDS)
+    print(markdown(rows, STABILITY_FIELDS[:-1]))
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = _parser()
     args = parser.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     BASE["physics"] = preset(args.preset)
@@ -1127,43 +1218,9 @@ def main(argv: list[str] | None = None) -> None:
         print(markdown(rows, CHAOS_FIELDS))
         print(markdown(walkers, WALKER_FIELDS))
     elif args.study == "accuracy":
-        jobs = accuracy_jobs(variants=tuple(args.variants.split(",")),
-                             full_window=args.full_window, quick=args.quick)
-        if args.robots:
-            jobs = [job for job in jobs if job[0][0] in args.robots.split(",")]
-        log = args.out / f"accuracy_runs{suffix}.jsonl"
-        if args.from_log:
-            results = load_log(log)
-        else:
-            log.unlink(missing_ok=True)
-            results = run_jobs(jobs, args.jobs, cost=_run_cost, log=log)
-        rows = accuracy_rows(results)
-        write_csv(args.out / f"accuracy_table{suffix}.csv", rows, ACCURACY_FIELDS)
-        orders = convergence_orders(rows)
-        write_csv(args.out / f"accuracy_orders{suffix}.csv", orders)
-        plot_work_precision(rows, args.out / f"accuracy_work_precision{suffix}.png")
-        print(markdown(rows, ACCURACY_FIELDS))
-        print(markdown(orders, list(orders[0])))
+        _accuracy_study(args, suffix)
     elif args.study == "stability":
-        cases = stability_cases(quick=args.quick)
-        tasks = sorted(((c, args.rule) for c in cases),
-                       key=lambda t: -t[0].run.robot.n_voxels
-                       * math.sqrt(max(m.youngs_modulus for m in t[0].run.physics.materials
-                                       .values())))
-        rows = []
-        if args.jobs <= 1:
-            for task in tasks:
-                rows.append(_stability_job(task))
-                print(rows[-1], flush=True)
-        else:
-            with multiprocessing.get_context("fork").Pool(args.jobs) as pool:
-                for row in pool.imap_unordered(_stability_job, tasks):
-                    rows.append(row)
-                    print(row, flush=True)
-        order = {c.name: i for i, c in enumerate(cases)}
-        rows.sort(key=lambda r: order[r["case"]])
-        write_csv(args.out / f"accuracy_stability{suffix}.csv", rows, STABILITY_FIELDS)
-        print(markdown(rows, STABILITY_FIELDS[:-1]))
+        _stability_study(args, suffix)
     else:
         rows = read_csv(args.out / f"accuracy_table{suffix}.csv")
         plot_work_precision(rows, args.out / f"accuracy_work_precision{suffix}.png")

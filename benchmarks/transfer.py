@@ -145,22 +145,17 @@ def main(argv: list[str] | None = None) -> int:
     given = Physics().replace(settle_time=args.settle, measured_time=args.duration)
     todo = [(name or Path(path).stem, Path(path), None, None, given)
             for name, _, path in (item.rpartition("=") for item in args.robots)]
-    if args.best_of is not None:
-        from mjregen.experiments.paper import best_robots
+    from mjregen.experiments.paper import best_robots, finished_runs_robots
 
-        found = best_robots(args.best_of)
-        if not found:
-            parser.error(f"--best-of {args.best_of}: no evolution runs there")
-        todo += [(name, path, None, None, physics) for name, (path, physics) in found.items()]
-    if args.each_run is not None:
-        from mjregen.experiments.paper import finished_runs_robots
-
-        found = finished_runs_robots(args.each_run)
-        if not found:
-            parser.error(f"--each-run {args.each_run}: no finished evolution runs there")
-        named = {name for name, *_ in todo}
-        todo += [(name, path, None, None, physics) for name, (path, physics) in found.items()
-                 if name not in kept and name not in named]
+    for root, pick, new_only in ((args.best_of, best_robots, False),
+                                 (args.each_run, finished_runs_robots, True)):
+        if root is not None:  # --each-run leaves out the robots --json already holds
+            found = pick(root)
+            if not found:
+                parser.error(f"{root}: no {'finished ' if new_only else ''}evolution runs there")
+            named = {name for name, *_ in todo}
+            todo += [(name, path, None, None, physics) for name, (path, physics) in found.items()
+                     if name not in named and not (new_only and name in kept)]
     if args.assets is not None:
         todo += shipped_walkers(args.assets)
     try:

@@ -30,6 +30,7 @@ import json
 import sys
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -38,6 +39,9 @@ from mjregen.fileio import atomic_open
 from mjregen.grid import Robot
 from mjregen.physics import Physics
 from mjregen.resources import asset
+
+if TYPE_CHECKING:
+    from mjregen.render import View
 
 DEFAULT_NCA = asset("nca", "walker_3d.npz")
 OUTPUTS = ("robot.npy", "robot.xml", "growth.png", "walk.mp4", "summary.json")
@@ -132,26 +136,46 @@ def _print_growth(states: np.ndarray) -> None:
         print(Robot(state).to_text())
 
 
+def _checked_view(args: argparse.Namespace) -> View | None:
+    """The video's `View` (None with --no-video), once --out holds none of the outputs (or
+    --force) and the video's numbers are valid: bad input fails before any work."""
+    from mjregen.render import View
+
+    wanted = [name for name in OUTPUTS if not (args.no_video and name == "walk.mp4")]
+    existing = [name for name in wanted if (args.out / name).exists()]
+    if existing and not args.force:
+        raise MjregenError(f"{args.out} already holds {', '.join(existing)}; pass --force to "
+                           "replace them or choose another --out")
+    if args.no_video:
+        return None
+    view = View(width=args.width, height=args.height)
+    if args.fps < 1 or not args.slowdown > 0:
+        raise MjregenError("--fps must be >= 1 and --slowdown > 0")
+    return view
+
+
+def _write_robot(out: Path, robot: Robot, states: np.ndarray | None, *, overwrite: bool) -> None:
+    """robot.npy, and growth.png from the growth's `states` (steps, *grid) when it grew."""
+    from mjregen.figures import growth_figure
+
+    out.mkdir(parents=True, exist_ok=True)
+    robot.save(out / "robot.npy", overwrite=overwrite)
+    if states is not None:
+        titles = [f"step {k}" for k in range(len(states))] + ["cleaned"]
+        growth_figure(np.concatenate([states, robot.grid[None]]), out / "growth.png",
+                      overwrite=overwrite, titles=titles)
+
+
 def run(args: argparse.Namespace) -> dict:
     """Grow, compile, walk and write the outputs; returns the summary."""
-    from mjregen.render import View, select_gl_backend
+    from mjregen.render import select_gl_backend
 
     out: Path = args.out
-    wanted = [name for name in OUTPUTS if not (args.no_video and name == "walk.mp4")]
-    existing = [name for name in wanted if (out / name).exists()]
-    if existing and not args.force:
-        raise MjregenError(f"{out} already holds {', '.join(existing)}; pass --force to replace "
-                           "them or choose another --out")
-    view = None
-    if not args.no_video:
-        view = View(width=args.width, height=args.height)  # bad sizes fail before any work
-        if args.fps < 1 or not args.slowdown > 0:
-            raise MjregenError("--fps must be >= 1 and --slowdown > 0")
+    view = _checked_view(args)
     robot, states, source, physics = _load_source(args)
     if view is not None:  # a missing renderer fails before the simulation
         print(f"rendering with MUJOCO_GL={select_gl_backend()}")
 
-    from mjregen.figures import growth_figure
     from mjregen.physics.compile import compile_robot
     from mjregen.physics.simulation import simulate
     from mjregen.render import record_walk
@@ -163,12 +187,7 @@ def run(args: argparse.Namespace) -> dict:
         _print_growth(states)
         print("--- after cleaning ---")
         print(robot.to_text())
-    out.mkdir(parents=True, exist_ok=True)
-    robot.save(out / "robot.npy", overwrite=args.force)
-    if states is not None:
-        titles = [f"step {k}" for k in range(len(states))] + ["cleaned"]
-        growth_figure(np.concatenate([states, robot.grid[None]]), out / "growth.png",
-                      overwrite=args.force, titles=titles)
+    _write_robot(out, robot, states, overwrite=args.force)
     if robot.is_empty:
         raise MjregenError(f"{source} grew an empty robot: nothing to walk (robot.npy and "
                            "growth.png are written)")

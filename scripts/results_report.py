@@ -193,6 +193,38 @@ def _network_comparison(dim: int, ff: list, lstm: list) -> str:
             f"{paper} ({ex.CONDITIONS[f'{dim}d_ff'].paper_runs} runs per condition).")
 
 
+def _evaluation_cell(task: dict, dim: int) -> str:
+    """The settings table's evaluation column of a run's stored task: body, settle and walk
+    times against the paper's, and its physics against today's defaults."""
+    from mjregen.physics import PAPER_TIMES, Physics, paper_physics
+    from mjregen.tasks.locomotion import LocomotionTask
+
+    physics = task.get("physics", {})
+    settle = physics.get("scene", {}).get("settle_time") if isinstance(physics, dict) else None
+    paper_settle, paper_walk = PAPER_TIMES[dim]
+    settle_s = paper_settle if settle is None else settle
+    walk_s = paper_walk if task.get("duration") is None else task["duration"]
+    same = (settle_s, walk_s) == (paper_settle, paper_walk)
+    body = ("one-layer sheets on the floor (the paper's 2D robots); "
+            if task.get("body") == "sheet" else "")
+    rest = (LocomotionTask.from_config(task).robot_physics.scene.rest_threshold
+            if task.get("task") == "locomotion" else 0.0)
+    ends = f", ending once at rest (`settle_rest` {rest:g})" if rest else ""
+    timing = (f"{body}settle {fmt(settle_s)} s{ends} + walk {fmt(walk_s)} s"
+              + (" (the paper's)" if same else ""))
+    stored = Physics.from_dict(physics) if isinstance(physics, dict) and physics else None
+    if stored == Physics().replace(settle_time=settle):
+        default = "today's default physics (= `paper_physics()`)"
+    elif stored == Physics().replace(settle_time=settle, start_shift=0.0):
+        default = ("today's default physics from the exact start (before the start "
+                   "shift; docs/transfer.md)")
+    elif stored == paper_physics().replace(settle_time=settle, bond_element="tendons"):
+        default = "`paper_physics()` with tendon bonds (`--bonds tendons`)"
+    else:
+        default = "physics differ from today's defaults (see the run's config.json)"
+    return f"{timing}; {default}"
+
+
 class Report:
     """Collects the sections of results.md and the facts for the discussion."""
 
@@ -259,9 +291,6 @@ class Report:
                  "folder as the script).", "")
 
     def settings(self) -> None:
-        from mjregen.physics import PAPER_TIMES, Physics, paper_physics
-        from mjregen.tasks.locomotion import LocomotionTask
-
         self.add("## Settings: what was run, against the paper", "",
                  "| condition | paper: pop × gens × runs | here: pop × gens (finished) × runs | "
                  "evaluations here / paper | truncation, elites, σ here (paper) | scale | evaluation "
@@ -279,38 +308,14 @@ class Report:
             ga = runs[0].config["ga"]
             done = sorted({r.generations_done for r in runs})
             evals = sum(r.generations_done for r in runs) * ga["population"]
-            task = runs[0].config["task"]
-            physics = task.get("physics", {})
-            settle = physics.get("scene", {}).get("settle_time") if isinstance(physics, dict) else None
-            paper_settle, paper_walk = PAPER_TIMES[condition.dim]
-            settle_s = paper_settle if settle is None else settle
-            walk_s = paper_walk if task.get("duration") is None else task["duration"]
-            same = (settle_s, walk_s) == (paper_settle, paper_walk)
-            body = ("one-layer sheets on the floor (the paper's 2D robots); "
-                    if task.get("body") == "sheet" else "")
-            rest = (LocomotionTask.from_config(task).robot_physics.scene.rest_threshold
-                    if task.get("task") == "locomotion" else 0.0)
-            ends = f", ending once at rest (`settle_rest` {rest:g})" if rest else ""
-            timing = (f"{body}settle {fmt(settle_s)} s{ends} + walk {fmt(walk_s)} s"
-                      + (" (the paper's)" if same else ""))
-            stored = Physics.from_dict(physics) if isinstance(physics, dict) and physics else None
+            evaluation = _evaluation_cell(runs[0].config["task"], condition.dim)
             hours = f"{sum(r.elapsed for r in runs) / 3600:.2g}"
-            if stored == Physics().replace(settle_time=settle):
-                default = "today's default physics (= `paper_physics()`)"
-            elif stored == Physics().replace(settle_time=settle, start_shift=0.0):
-                default = ("today's default physics from the exact start (before the start "
-                           "shift; docs/transfer.md)")
-            elif stored == paper_physics().replace(settle_time=settle,
-                                                         bond_element="tendons"):
-                default = "`paper_physics()` with tendon bonds (`--bonds tendons`)"
-            else:
-                default = "physics differ from today's defaults (see the run's config.json)"
             self.add(f"| {name} | {paper.population} × {paper.generations} × {condition.paper_runs} | "
                      f"{ga['population']} × {ga['generations']} ({'/'.join(map(str, done))}) × {len(runs)} | "
                      f"{evals} / {paper_evals} ({100 * evals / paper_evals:.2g} %) | "
                      f"{ga['truncation']}, {ga['elites']}, {ga['sigma']:g} ({paper.truncation}, "
                      f"{paper.elites}, {paper.sigma:g}) | {ex.scale_of(runs[0].config)} | "
-                     f"{timing}; {default} | {hours} h |")
+                     f"{evaluation} | {hours} h |")
             self.facts.append(f"{name}: {evals} evaluations, {100 * evals / paper_evals:.2g} % of "
                               f"the paper's {paper_evals}, in {hours} h of wall time.")
         self.add("", "The paper's evaluation: 2D 0.25 s of walking (10 cycles at 40 Hz), 3D 0.5 s "
@@ -370,20 +375,24 @@ class Report:
                 if not runs:
                     self.add(f"| {name} | not run | | | | | | | |")
                     continue
-                stats = self.stats[name]
-                top = ex.best_run(runs)
-                unstable = sum(_metric_sum(r, "unstable") for r in runs)
-                failed = sum(_metric_sum(r, "failed") for r in runs)
-                finals = ", ".join(f"{r.best[len(stats.mean) - 1]:.4g}" for r in runs)
-                self.add(f"| {name} | {len(runs)} | {len(stats.mean)} | {finals} "
-                         f"({stats.mean[-1]:.4g}) | {top.best_fitness:.4g}, "
-                         f"{fmt_distance(_best_distance(top), 4)}, seed {top.seed}, "
-                         f"gen {top.best_generation} | {fmt_distance(_rewalked(top), 4)} | "
-                         f"{_engine_cell(self.transfer.get(self._robot_name(top)))} | "
-                         f"{self._transfer_count(runs)} | {unstable} / {failed} |")
+                self.add(self._condition_row(name, runs))
             self.add("")
             if len(groups) == 2:
                 self.facts.append(_network_comparison(dim, *(self.runs[n] for n in names)))
+
+    def _condition_row(self, name: str, runs: list[ex.RunInfo]) -> str:
+        """A condition's row of the fitness table (its curve's statistics in `self.stats`)."""
+        stats = self.stats[name]
+        top = ex.best_run(runs)
+        unstable = sum(_metric_sum(r, "unstable") for r in runs)
+        failed = sum(_metric_sum(r, "failed") for r in runs)
+        finals = ", ".join(f"{r.best[len(stats.mean) - 1]:.4g}" for r in runs)
+        return (f"| {name} | {len(runs)} | {len(stats.mean)} | {finals} "
+                f"({stats.mean[-1]:.4g}) | {top.best_fitness:.4g}, "
+                f"{fmt_distance(_best_distance(top), 4)}, seed {top.seed}, "
+                f"gen {top.best_generation} | {fmt_distance(_rewalked(top), 4)} | "
+                f"{_engine_cell(self.transfer.get(self._robot_name(top)))} | "
+                f"{self._transfer_count(runs)} | {unstable} / {failed} |")
 
     def shipped(self) -> list[tuple[str, Path, Path | None]]:
         """Shipped NCAs: table and growth figures; returns (name, robot file, nca file) to draw."""
@@ -656,10 +665,6 @@ class Report:
     def self_regrowth(self) -> None:
         """One NCA that grows and regrows (`mjregen evolve --task grow-regrow`): the best of
         each run under <root>/grow_regrow_<net>/seed_<n>, beside the growth-only runs."""
-        from mjregen.experiments.self_regrowth import self_regrowth_report
-        from mjregen.growth.checkpoint import load_nca
-        from mjregen.tasks.locomotion import LocomotionTask
-
         self.add("## One NCA that grows and regrows", "")
         folders = sorted(Path(self.args.root).glob("grow_regrow_*/seed_*"))
         runs = [ex.read_run(f) for f in folders if (f / "config.json").is_file()]
@@ -684,39 +689,48 @@ class Report:
                  "distance / growth-only |",
                  "|---|---|---|---|---|---|---|---|---|---|")
         for run in runs:
-            npz, _ = run.best_files()
-            nca, meta = load_nca(npz)
-            task = LocomotionTask.from_config({**run.config["task"], "task": "locomotion"})
-            report = self_regrowth_report(nca, physics=task.physics, duration=task.duration)
-            cuts = [v for k, v in report.similarity.items() if k != "paper"]
-            distance = report.recovery.distance
-            growth_only = self.runs.get(f"3d_{run.config['task']['nca']['kind']}")
-            alone = _best_distance(ex.best_run(growth_only)) if growth_only else math.nan
-            ratio = distance["original"] / alone if math.isfinite(alone) and alone else math.nan
-            percent = {role: 100 * distance[role] / distance["original"]
-                       if distance["original"] else math.nan for role in ("damaged", "regrown")}
-            self.add(f"| {run.condition} seed {run.seed} | {run.config['ga']['population']} × "
-                     f"{run.generations_done} | {run.config['task']['cell_cost']:g}, "
-                     f"{run.config['task'].get('regrown_weight', 0.0):g} | "
-                     f"{meta['fitness']:.4g} | {fmt_distance(distance['original'], 4)} | "
-                     f"{report.similarity['paper']} | {np.mean(cuts):.1f} ({min(cuts)}) | "
-                     f"{fmt_distance(distance['damaged'], 4)} ({percent['damaged']:.0f} %) / "
-                     f"{fmt_distance(distance['regrown'], 4)} ({percent['regrown']:.0f} %) | "
-                     f"{fmt_distance(alone, 4)} | {ratio:.0%} |")
-            unfinished = ("" if run.complete else f", unfinished: {run.generations_done} of "
-                          f"{run.generations_planned} generations")
-            today = _rewalked(run)
-            alone_today = _rewalked(ex.best_run(growth_only)) if growth_only else math.nan
-            self.facts.append(
-                f"One NCA that grows and regrows ({run.condition} seed {run.seed}{unfinished}): "
-                f"similarity {report.similarity['paper']}/729 after the paper's cut (goal 700), walking "
-                f"{ratio:.0%} as far as the best growth-only NCA of the same budget (goal 80 %) "
-                f"from the start its run scored; from {REWALK_STARTS} symmetry-broken starts it "
-                f"walks {fmt_distance(today, 3)} against the growth-only NCA's "
-                f"{fmt_distance(alone_today, 3)} ({today / alone_today:.0%}).")
-        self.add("", "Random cuts: " + ", ".join(f"`{k}`" for k in report.similarity
+            similarity = self._self_regrowth_run(run)
+        self.add("", "Random cuts: " + ", ".join(f"`{k}`" for k in similarity
                                                  if k != "paper") + ". Distances in voxel "
                  "lengths over 0.5 s.", "")
+
+    def _self_regrowth_run(self, run: ex.RunInfo) -> dict[str, int]:
+        """A grow-regrow run's row and fact; returns its similarities by cut."""
+        from mjregen.experiments.self_regrowth import self_regrowth_report
+        from mjregen.growth.checkpoint import load_nca
+        from mjregen.tasks.locomotion import LocomotionTask
+
+        npz, _ = run.best_files()
+        nca, meta = load_nca(npz)
+        task = LocomotionTask.from_config({**run.config["task"], "task": "locomotion"})
+        report = self_regrowth_report(nca, physics=task.physics, duration=task.duration)
+        cuts = [v for k, v in report.similarity.items() if k != "paper"]
+        distance = report.recovery.distance
+        growth_only = self.runs.get(f"3d_{run.config['task']['nca']['kind']}")
+        alone = _best_distance(ex.best_run(growth_only)) if growth_only else math.nan
+        ratio = distance["original"] / alone if math.isfinite(alone) and alone else math.nan
+        percent = {role: 100 * distance[role] / distance["original"]
+                   if distance["original"] else math.nan for role in ("damaged", "regrown")}
+        self.add(f"| {run.condition} seed {run.seed} | {run.config['ga']['population']} × "
+                 f"{run.generations_done} | {run.config['task']['cell_cost']:g}, "
+                 f"{run.config['task'].get('regrown_weight', 0.0):g} | "
+                 f"{meta['fitness']:.4g} | {fmt_distance(distance['original'], 4)} | "
+                 f"{report.similarity['paper']} | {np.mean(cuts):.1f} ({min(cuts)}) | "
+                 f"{fmt_distance(distance['damaged'], 4)} ({percent['damaged']:.0f} %) / "
+                 f"{fmt_distance(distance['regrown'], 4)} ({percent['regrown']:.0f} %) | "
+                 f"{fmt_distance(alone, 4)} | {ratio:.0%} |")
+        unfinished = ("" if run.complete else f", unfinished: {run.generations_done} of "
+                      f"{run.generations_planned} generations")
+        today = _rewalked(run)
+        alone_today = _rewalked(ex.best_run(growth_only)) if growth_only else math.nan
+        self.facts.append(
+            f"One NCA that grows and regrows ({run.condition} seed {run.seed}{unfinished}): "
+            f"similarity {report.similarity['paper']}/729 after the paper's cut (goal 700), walking "
+            f"{ratio:.0%} as far as the best growth-only NCA of the same budget (goal 80 %) "
+            f"from the start its run scored; from {REWALK_STARTS} symmetry-broken starts it "
+            f"walks {fmt_distance(today, 3)} against the growth-only NCA's "
+            f"{fmt_distance(alone_today, 3)} ({today / alone_today:.0%}).")
+        return report.similarity
 
     def quality_diversity(self) -> None:
         """docs/quality_diversity.md (`scripts/qd_comparison.py --report`), one level down."""

@@ -44,7 +44,32 @@ def add_evolve(subparsers: argparse._SubParsersAction) -> None:
         "preset's sigma; the folder holds archive.npz, heatmap.png, qd.png, best.npz/.npy, "
         "gallery.png and the checkpoint.",
     )
-    task = parser.add_argument_group("what is evolved")
+    _add_task_arguments(parser.add_argument_group("what is evolved"))
+    search = parser.add_argument_group("the GA (its preset, and numbers that override it)")
+    add_ga_arguments(search, preset_help="GA preset (default: 2d or 3d by --dim)")
+    scoring = parser.add_argument_group("physics and scoring")
+    add_physics_arguments(scoring)
+    scoring.add_argument("--starts", type=starts_count,
+                         help="starts each robot walks from (every voxel moved by a seeded "
+                              f"offset of --start-shift); its fitness is their mean (default "
+                              f"{DEFAULT_STARTS})")
+    search.add_argument("--seed", type=seed, help="seed of the GA and of the robots' starts "
+                                                  "(default 0)")
+    where = parser.add_argument_group("where the robots are simulated")
+    where.add_argument("--backend", choices=BACKENDS, default="process",
+                       help="where simulations run (default: local processes)")
+    where.add_argument("--workers", type=workers, help="parallel workers (default: all cores)")
+    where.add_argument("--address", help="Ray cluster address (with --backend ray)")
+    folder = parser.add_argument_group("run folder and output")
+    add_run_folder_arguments(folder,
+                             resume_help="continue the run in --out with its stored settings")
+    folder.add_argument("--json", action="store_true", help="print a JSON summary at the end")
+    add_map_elites_arguments(parser)
+    parser.set_defaults(handler=_evolve, renders=draws_gallery)
+
+
+def _add_task_arguments(task: argparse._ArgumentGroup) -> None:
+    """`evolve`'s options of what is evolved: optimiser, task, damage, network, body."""
     task.add_argument("--optimizer", choices=("ga", "map-elites"),
                       help="search: the paper's GA (the default) or MAP-Elites (ribs)")
     task.add_argument("--task", choices=("locomotion", "grow-regrow"),
@@ -70,27 +95,6 @@ def add_evolve(subparsers: argparse._SubParsersAction) -> None:
                            "itself; a 2D one moves in the x-z plane) or 'sheet' (--dim 2: the "
                            "pattern lies flat on the floor as one layer of voxels and walks in "
                            "3D for the 2D times, as the paper's 2D robots do)")
-    search = parser.add_argument_group("the GA (its preset, and numbers that override it)")
-    add_ga_arguments(search, preset_help="GA preset (default: 2d or 3d by --dim)")
-    scoring = parser.add_argument_group("physics and scoring")
-    add_physics_arguments(scoring)
-    scoring.add_argument("--starts", type=starts_count,
-                         help="starts each robot walks from (every voxel moved by a seeded "
-                              f"offset of --start-shift); its fitness is their mean (default "
-                              f"{DEFAULT_STARTS})")
-    search.add_argument("--seed", type=seed, help="seed of the GA and of the robots' starts "
-                                                  "(default 0)")
-    where = parser.add_argument_group("where the robots are simulated")
-    where.add_argument("--backend", choices=BACKENDS, default="process",
-                       help="where simulations run (default: local processes)")
-    where.add_argument("--workers", type=workers, help="parallel workers (default: all cores)")
-    where.add_argument("--address", help="Ray cluster address (with --backend ray)")
-    folder = parser.add_argument_group("run folder and output")
-    add_run_folder_arguments(folder,
-                             resume_help="continue the run in --out with its stored settings")
-    folder.add_argument("--json", action="store_true", help="print a JSON summary at the end")
-    add_map_elites_arguments(parser)
-    parser.set_defaults(handler=_evolve, renders=draws_gallery)
 
 
 def _evolve(args: argparse.Namespace) -> int:
