@@ -485,8 +485,20 @@ def _sibling(name: str):
 def performance_doc(report: dict, extra: dict, evolution: dict | None,
                     recorded: list[dict], sections: list[str] = ()) -> str:
     """docs/performance.md from one run of this script (`recorded`: `recorded_evolutions`)."""
-    before = json.loads((Path(__file__).with_name("speed_before.json")).read_text())
-    steps, start = extra["steps"], extra["startup"]
+    lines = _head_and_result(report, extra, evolution, recorded)
+    lines += _per_robot_section(report, extra["steps"])
+    lines += _before_section()
+    lines += _where_the_time_goes(report, extra)
+    lines += _real_evolution_section(evolution)
+    if recorded:
+        lines += ["", *recorded_section(recorded)]
+    return "\n".join([*lines, *sections]) + "\n"
+
+
+def _head_and_result(report: dict, extra: dict, evolution: dict | None,
+                     recorded: list[dict]) -> list[str]:
+    """The title, how the report was made, the machine and the Result bullets."""
+    start = extra["startup"]
     paper = [n for n in report if n.startswith("paper_")]
     randoms = [n for n in report if n.startswith("random_")
                and report[n]["voxelyze_cpu_s"] is not None]
@@ -533,7 +545,12 @@ def performance_doc(report: dict, extra: dict, evolution: dict | None,
             f"generations at its mean time per generation: "
             f"**{evolution['projected_paper_run_h']:.1f} h**.")
     lines += recorded_bullets(recorded)
-    lines += [
+    return lines
+
+
+def _per_robot_section(report: dict, steps: dict) -> list[str]:
+    """The table of CPU time per robot beside the engine's, and the tendon bonds' cost."""
+    lines = [
         "",
         "## Per robot",
         "",
@@ -566,7 +583,13 @@ def performance_doc(report: dict, extra: dict, evolution: dict | None,
             + ", ".join(f"{DOC_ROBOTS.get(n, n)} {r:.1f}×" for n, r in tendons.items())
             + " the CPU time of the default beam bonds.",
         ]
-    lines += [
+    return lines
+
+
+def _before_section() -> list[str]:
+    """The table measured before the plugin's optimisation (`speed_before.json`)."""
+    before = json.loads((Path(__file__).with_name("speed_before.json")).read_text())
+    lines = [
         "",
         "## Before",
         "",
@@ -580,9 +603,16 @@ def performance_doc(report: dict, extra: dict, evolution: dict | None,
         lines.append(f"| {DOC_ROBOTS.get(name, name)} | {row['voxels']} | "
                      f"{row['voxelyze_cpu_s']:.3f} | {row['cpu_s']:.3f} | "
                      f"{row['cpu_s'] / row['voxelyze_cpu_s']:.2f} | {count} |")
+    return lines
+
+
+def _where_the_time_goes(report: dict, extra: dict) -> list[str]:
+    """Why the numbers are the scalar code's, the chaos that makes that matter, and the step."""
+    steps = extra["steps"]
+    paper = [n for n in report if n.startswith("paper_")]
     chaos_run = extra["chaos"]
     spread = chaos_run["distances"]
-    lines += [
+    lines = [
         "",
         "## Where the time goes, and what keeps the results",
         "",
@@ -619,15 +649,7 @@ def performance_doc(report: dict, extra: dict, evolution: dict | None,
         "|---|---|---|---|---|---|---|",
     ]
     safety = Physics().scene.timestep_safety
-    for name, row in steps.items():
-        if "zeta" not in row:
-            continue
-        engine = "" if row["engine_steps"] is None else f"{row['engine_steps']:,}"
-        edge = ("" if row["engine_steps"] is None else
-                f"{safety * row['steps'] / row['engine_steps']:.2f}")
-        lines.append(f"| {DOC_ROBOTS.get(name, name)} | {row['zeta']:.2f} | "
-                     f"{row['damping_cost']:.2f} | {engine} / {row['steps']:,} | {edge} | "
-                     f"{row['own_damping_step']:.2f} | {row['rotations_held']:.3f} |")
+    lines += _step_rows(steps, safety)
     lines += [
         "",
         "On dense blocks (the networks' stiffest topology, which the engine's rule is made "
@@ -641,9 +663,28 @@ def performance_doc(report: dict, extra: dict, evolution: dict | None,
         "longer step at the same accuracy needs another integrator for the overdamped modes "
         "(their damping sets the limit); the paragraphs below measure the candidates.",
     ]
-    lines += rotational_inertia_paragraph(steps)
-    lines += implicit_damping_paragraph(steps, safety)
-    lines += explicit_schemes_paragraph(steps, safety)
+    return [*lines, *rotational_inertia_paragraph(steps),
+            *implicit_damping_paragraph(steps, safety), *explicit_schemes_paragraph(steps, safety)]
+
+
+def _step_rows(steps: dict, safety: float) -> list[str]:
+    """The step table's row of each robot with a step analysis (`step_analysis`)."""
+    rows = []
+    for name, row in steps.items():
+        if "zeta" not in row:
+            continue
+        engine = "" if row["engine_steps"] is None else f"{row['engine_steps']:,}"
+        edge = ("" if row["engine_steps"] is None else
+                f"{safety * row['steps'] / row['engine_steps']:.2f}")
+        rows.append(f"| {DOC_ROBOTS.get(name, name)} | {row['zeta']:.2f} | "
+                     f"{row['damping_cost']:.2f} | {engine} / {row['steps']:,} | {edge} | "
+                     f"{row['own_damping_step']:.2f} | {row['rotations_held']:.3f} |")
+    return rows
+
+
+def _real_evolution_section(evolution: dict | None) -> list[str]:
+    """The section on a real short evolution (`evolution.py short-run`), if measured."""
+    lines: list[str] = []
     if evolution is not None:
         lines += [
             "",
@@ -667,9 +708,7 @@ def performance_doc(report: dict, extra: dict, evolution: dict | None,
                     "initial genes fill much of the grid) and a step costs in proportion to "
                     "the voxels, so that generation is the slowest however few robots it "
                     "simulates; selection, with the voxel cost in the fitness, shrinks them.")
-    if recorded:
-        lines += ["", *recorded_section(recorded)]
-    return "\n".join([*lines, *sections]) + "\n"
+    return lines
 
 
 def main() -> None:
