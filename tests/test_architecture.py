@@ -210,3 +210,31 @@ def test_the_command_starts_no_blas_threads_unless_the_user_asks(tmp_path):
                            env={**env, "OPENBLAS_NUM_THREADS": "2"}, check=True).stdout.split()
     assert alone[0] == "1" and asked[0] == "2"
     assert int(alone[1]) < int(asked[1])  # the user's second BLAS thread is there
+
+
+LONGEST_FUNCTION = 60  # lines, decorators and docstring included
+
+
+def _long_functions(source: str) -> list[tuple[str, int]]:
+    """(name, lines) of every function in `source` longer than `LONGEST_FUNCTION`."""
+    return [(node.name, node.end_lineno - node.lineno + 1) for node in ast.walk(ast.parse(source))
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef))
+            and node.end_lineno - node.lineno + 1 > LONGEST_FUNCTION]
+
+
+def test_no_function_is_longer_than_sixty_lines():
+    """The package, its benchmarks and its scripts: a longer function is split into parts
+    with names that say what each does."""
+    project = ROOT.parent
+    files = [p for folder in ("mjregen", "benchmarks", "scripts")
+             for p in sorted((project / folder).rglob("*.py"))]
+    assert len(files) > 50
+    long = {f"{path.relative_to(project)}:{name}": lines for path in files
+            for name, lines in _long_functions(path.read_text())}
+    assert not long, f"functions over {LONGEST_FUNCTION} lines: {long}"
+
+
+def test_the_length_check_sees_a_long_function():
+    body = "\n".join(f"    x{i} = {i}" for i in range(LONGEST_FUNCTION))
+    assert _long_functions(f"def long():\n{body}\n") == [("long", LONGEST_FUNCTION + 1)]
+    assert _long_functions(f"def short():\n{body[:-len(body.splitlines()[-1]) - 1]}\n") == []
