@@ -264,6 +264,9 @@ RECORDS = {  # records of paper-size runs: (conditions at the paper's scale, how
     ROOT / "records" / "paper": (("3d_ff", "3d_lstm", "2d_ff", "2d_lstm"),
                                  "one run per core (serial), two at once"),
 }
+RUN_SETTINGS = {  # runs that ran otherwise than their records folder's others
+    "paper/3d_ff/seed_4": "2 worker processes, alone on the machine",
+}
 
 
 def recorded_evolutions(root: Path, conditions: tuple[str, ...] = ("3d_ff", "3d_lstm"),
@@ -282,8 +285,11 @@ def recorded_evolutions(root: Path, conditions: tuple[str, ...] = ("3d_ff", "3d_
             simulated = sum(int(row["distinct"]) for row in rows)
             median_s = statistics.median(float(row["wall_time"]) for row in rows)
             population = info.config["ga"]["population"]
+            last = info.best_files(info.generations_done - 1)[1]
+            key = f"{root.name}/{condition}/seed_{info.seed}"
             runs.append({
-                "run": f"{condition} seed {info.seed}", "records": root.name, "how": how,
+                "run": f"{condition} seed {info.seed}", "records": root.name,
+                "how": RUN_SETTINGS.get(key, how),
                 "population": population,
                 "generations": info.generations_done, "planned": info.generations_planned,
                 "complete": info.complete, "wall_h": info.elapsed / 3600,
@@ -293,6 +299,8 @@ def recorded_evolutions(root: Path, conditions: tuple[str, ...] = ("3d_ff", "3d_
                 / 3600,
                 "median_generation_s": median_s,
                 "median_h": median_s * info.generations_planned / 3600,
+                "last_best_voxels": (int(np.count_nonzero(np.load(last)))
+                                     if last.is_file() else None),
             })
     return runs
 
@@ -306,20 +314,26 @@ def all_recorded_evolutions() -> list[dict]:
 def recorded_bullets(recorded: list[dict]) -> list[str]:
     """The Result bullets on the finished paper-size runs, per records folder and dimension."""
     lines = []
-    for records in dict.fromkeys(r["records"] for r in recorded):
+    for records, how in dict.fromkeys((r["records"], r["how"]) for r in recorded):
         for dim in ("3d", "2d"):
-            done = [r for r in recorded if r["complete"] and r["records"] == records
-                    and r["run"].startswith(dim)]
+            done = [r for r in recorded if r["complete"] and (r["records"], r["how"]) ==
+                    (records, how) and r["run"].startswith(dim)]
             if done:
+                wall = _span([r["wall_h"] for r in done])
+                median = _span([r["median_h"] for r in done])
                 lines.append(
                     f"- The finished paper-size {dim.upper()} evolutions of `records/{records}/` "
                     f"({len(done)}; population {done[0]['population']} × {done[0]['planned']} "
-                    f"generations, {done[0]['how']}): "
-                    f"**{min(r['wall_h'] for r in done):.2f}–{max(r['wall_h'] for r in done):.2f} "
-                    "h** of wall time each; at each run's median generation "
-                    f"{min(r['median_h'] for r in done):.2f}–{max(r['median_h'] for r in done):.2f}"
-                    " h (table below).")
+                    f"generations, {how}): **{wall} h** of wall time"
+                    + (f" each; at each run's median generation {median} h" if len(done) > 1
+                       else f"; at its median generation {median} h") + " (table below).")
     return lines
+
+
+def _span(values: list[float]) -> str:
+    """'low–high' of `values` (2 decimals), or the one value."""
+    low, high = f"{min(values):.2f}", f"{max(values):.2f}"
+    return low if low == high else f"{low}–{high}"
 
 
 def recorded_section(recorded: list[dict]) -> list[str]:
@@ -334,17 +348,21 @@ def recorded_section(recorded: list[dict]) -> list[str]:
         "`records/paper/` one run per core (`--backend serial`), two runs at once, so two "
         "cores finish two runs in the time of one (a run's hours on 2 cores are half its "
         "own), some paused or resumed across sessions (the median generation's time is "
-        "robust to both). Evaluations count the population; the GA's cache simulates each "
-        "distinct genome once.",
+        "robust to both), except where the table says otherwise. Evaluations count the "
+        "population; the GA's cache simulates each distinct genome once. A step costs in "
+        "proportion to the voxels, so a run whose robots stay small is cheaper: the last "
+        "column counts the voxels of its last generation's best robot.",
         "",
-        "| run | records | generations | wall h | evaluations / s | robots simulated / s | "
-        "all generations at that rate (h) | median s per generation | all generations at "
-        "the median (h) |",
-        "|---|---|---|---|---|---|---|---|---|",
+        "| run | records | how it ran | generations | wall h | evaluations / s | robots "
+        "simulated / s | all generations at that rate (h) | median s per generation | all "
+        "generations at the median (h) | last best robot's voxels |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
-    lines += [f"| {r['run']} | {r['records']} | {r['generations']} of {r['planned']} | "
+    lines += [f"| {r['run']} | {r['records']} | {r['how']} | "
+              f"{r['generations']} of {r['planned']} | "
               f"{r['wall_h']:.2f} | {r['evaluations_per_s']:.2f} | {r['simulated_per_s']:.2f} | "
-              f"{r['planned_h']:.2f} | {r['median_generation_s']:.1f} | {r['median_h']:.2f} |"
+              f"{r['planned_h']:.2f} | {r['median_generation_s']:.1f} | {r['median_h']:.2f} | "
+              f"{'' if r['last_best_voxels'] is None else r['last_best_voxels']} |"
               for r in recorded]
     return lines
 

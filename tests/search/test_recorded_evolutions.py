@@ -7,6 +7,7 @@ import json
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 _SPEC = importlib.util.spec_from_file_location(
@@ -32,7 +33,12 @@ def test_rates_and_projection_come_from_the_generations_own_wall_times(tmp_path)
     _record(tmp_path / "3d_ff" / "seed_0", 0, [10.0, 20.0, 30.0, 40.0], [10, 9, 8, 7])
     _record(tmp_path / "3d_lstm" / "seed_3", 3, [50.0, 70.0], [10, 10])
     (tmp_path / "grow_regrow_ff" / "seed_0").mkdir(parents=True)  # not a paper-size condition
+    (tmp_path / "3d_ff" / "seed_0" / "best").mkdir()
+    last = np.zeros((3, 3, 3), dtype=np.int8)
+    last[0, :, 0] = 1  # 3 voxels in its last generation's best robot
+    np.save(tmp_path / "3d_ff" / "seed_0" / "best" / "gen_0003.npy", last)
     finished, unfinished = speed.recorded_evolutions(tmp_path, ("3d_ff", "3d_lstm"), "serial")
+    assert finished["last_best_voxels"] == 3 and unfinished["last_best_voxels"] is None
     assert finished["run"] == "3d_ff seed 0" and finished["generations"] == 4
     assert finished["wall_h"] == pytest.approx(100.0 / 3600)
     assert finished["evaluations_per_s"] == pytest.approx(40 / 100.0)
@@ -46,13 +52,23 @@ def test_rates_and_projection_come_from_the_generations_own_wall_times(tmp_path)
     assert unfinished["median_h"] == pytest.approx(4 * 60.0 / 3600)
 
 
-def test_only_the_given_conditions_count_and_bullets_cover_finished_runs(tmp_path):
+def test_only_the_given_conditions_count_and_bullets_cover_finished_runs(tmp_path, monkeypatch):
     _record(tmp_path / "3d_ff" / "seed_0", 0, [3600.0] * 4, [10] * 4)
     _record(tmp_path / "2d_ff" / "seed_1", 1, [900.0, 1800.0, 900.0, 900.0], [10] * 4)
     assert [r["run"] for r in speed.recorded_evolutions(tmp_path, ("2d_ff",))] == ["2d_ff seed 1"]
     both = speed.recorded_evolutions(tmp_path, ("3d_ff", "2d_ff"), "one run per core")
     bullets = speed.recorded_bullets(both)
     assert len(bullets) == 2
-    assert "3D" in bullets[0] and "**4.00–4.00 h**" in bullets[0]
-    assert "2D" in bullets[1] and "**1.25–1.25 h**" in bullets[1]  # 4500 s
-    assert "median generation 1.00–1.00 h" in bullets[1]  # 4 x 900 s
+    assert "3D" in bullets[0] and "**4.00 h**" in bullets[0]
+    assert "2D" in bullets[1] and "**1.25 h**" in bullets[1]  # 4500 s
+    assert "median generation 1.00 h" in bullets[1]  # 4 x 900 s
+    # a run that ran otherwise than its folder's others is named and counted apart
+    monkeypatch.setitem(speed.RUN_SETTINGS, f"{tmp_path.name}/2d_ff/seed_1", "alone")
+    apart = speed.recorded_evolutions(tmp_path, ("3d_ff", "2d_ff"), "one run per core")
+    assert {r["run"]: r["how"] for r in apart} == {"3d_ff seed 0": "one run per core",
+                                                   "2d_ff seed 1": "alone"}
+    bullets = speed.recorded_bullets(apart)
+    assert len(bullets) == 2
+    assert any("one run per core): **4.00 h** of wall time; at its median" in b for b in bullets)
+    assert any("alone): **1.25 h**" in b for b in bullets)
+    assert "| alone |" in "\n".join(speed.recorded_section(apart))
