@@ -95,10 +95,12 @@ class PaperEngine:
                                f"distance: {answer!r}") from error
 
     def run_window(self, grid: np.ndarray, *, dt_fraction: float, stop: float,
-                   measure_from: float) -> dict:
+                   measure_from: float, settings: dict[str, float] | None = None) -> dict:
         """One run of the optimised engine with its step at `dt_fraction` of its own
         stability rule (the paper's 0.9), `stop` s simulated and the distance measured from
         `measure_from` s: {"distance": voxel lengths, "cpu_s": the engine process's CPU s}.
+        `settings`: other elements of the paper's settings set to other values, by tag (e.g.
+        ``{"SelfColEnabled": 0}``: no self-collision).
 
         Raises:
           MjregenError: the settings' template lacks one of those elements, or the engine
@@ -108,7 +110,7 @@ class PaperEngine:
             folder = Path(folder)
             text = self.runner.vxa_text(np.asarray(grid), folder)
             for tag, value in (("DtFrac", dt_fraction), ("StopConditionValue", stop),
-                               ("InitCmTime", measure_from)):
+                               ("InitCmTime", measure_from), *(settings or {}).items()):
                 text, count = re.subn(rf"<{tag}>[^<]*</{tag}>", f"<{tag}>{value!r}</{tag}>",
                                       text)
                 if count != 1:

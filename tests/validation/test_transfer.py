@@ -38,7 +38,8 @@ DISTANCE = {distance!r}
 
 def vxa_text(grid, folder):
     return ("<VXA><DtFrac>0.9</DtFrac><StopConditionValue>1</StopConditionValue>"
-            "<InitCmTime>0</InitCmTime><Voxels>" + str(int((grid > 0).sum())) + "</Voxels></VXA>")
+            "<InitCmTime>0</InitCmTime><SelfColEnabled>0</SelfColEnabled><Voxels>"
+            + str(int((grid > 0).sum())) + "</Voxels></VXA>")
 
 
 def run(grid):
@@ -52,8 +53,9 @@ STAND_IN_ENGINE = """#!{python}
 import re, sys
 text = open(sys.argv[2]).read()
 value = {{tag: float(re.search(f"<{{tag}}>([^<]*)<", text).group(1))
-         for tag in ("DtFrac", "StopConditionValue", "InitCmTime")}}
-distance = 100 * value["DtFrac"] + 10 * value["StopConditionValue"] + value["InitCmTime"]
+         for tag in ("DtFrac", "StopConditionValue", "InitCmTime", "SelfColEnabled")}}
+distance = (100 * value["DtFrac"] + 10 * value["StopConditionValue"] + value["InitCmTime"]
+            + 1000 * value["SelfColEnabled"])
 if distance > 0:
     open("fitness.xml", "w").write(f"<NormFinalDist>{{distance!r}}</NormFinalDist>")
 sys.exit(1)
@@ -123,6 +125,13 @@ def test_a_window_run_gives_the_engine_its_step_duration_and_measurement(tmp_pat
     assert out["cpu_s"] >= 0.0
     with pytest.raises(MjregenError, match="wrote no distance .* at DtFrac 0.0"):
         engine.run_window(TRIPOD.grid, dt_fraction=0.0, stop=0.0, measure_from=0.0)
+    # another element of the settings, by its tag
+    on = engine.run_window(TRIPOD.grid, dt_fraction=0.45, stop=0.55, measure_from=0.05,
+                           settings={"SelfColEnabled": 1})
+    assert on["distance"] == pytest.approx(out["distance"] + 1000)
+    with pytest.raises(MjregenError, match="have 0 <NoSuchTag> elements"):
+        engine.run_window(TRIPOD.grid, dt_fraction=0.45, stop=0.55, measure_from=0.05,
+                          settings={"NoSuchTag": 1})
 
 
 def test_the_engine_is_refused_clearly_when_it_is_not_there_or_fails(tmp_path):
