@@ -50,6 +50,7 @@ from pathlib import Path
 import numpy as np
 
 from mjregen.errors import MjregenError
+from mjregen.fileio import atomic_open
 from mjregen.grid import Robot
 from mjregen.physics import Physics
 from mjregen.tasks.bodies import body_physics
@@ -173,7 +174,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.json is not None:
         kept.update((r.name, asdict(r) | {"distance": r.distance, "transfers": r.transfers})
                     for r in rows)
-        args.json.write_text(json.dumps(list(kept.values()), indent=1))
+        with atomic_open(args.json, "w") as handle:  # the kept entries survive a failure
+            json.dump(list(kept.values()), handle, indent=1)
     return 0
 
 
