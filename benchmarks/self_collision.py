@@ -7,6 +7,12 @@ the default physics and with self-collision off (`collision_radius` 0), and the 
 engine (DIR: its folder with `vxa.py`) with its settings and with `SelfColEnabled` 0. Where
 the two simulators agree without self-collision but not with it, their difference is the
 self-collision model's (docs/transfer.md).
+
+``--contacts`` also follows mjregen's walk (every 2nd step) and counts the samples of pairs
+touching (centres closer than 1.5 L) that the engine's collision candidates would not hold:
+the engine lists the surface pairs more than 3 bonds apart within 2 L of each other, and
+lists them again only once its fastest voxel has moved 0.5 L (its horizon 2, halved less
+one half).
 """
 
 from __future__ import annotations
@@ -14,12 +20,18 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import sys
+from collections import deque
 from pathlib import Path
+
+import mujoco
+import numpy as np
 
 from mjregen.errors import MjregenError
 from mjregen.grid import Robot
 from mjregen.physics import Physics
-from mjregen.physics.simulation import simulate
+from mjregen.physics.compile import compile_robot
+from mjregen.physics.model import voxel_name
+from mjregen.physics.simulation import simulate, simulation_of
 from mjregen.validation.engine import PAPER_DT_FRACTION, PaperEngine
 
 
@@ -44,6 +56,55 @@ def measure(robot: Robot, engine: PaperEngine) -> dict[str, float]:
             "engine": in_engine(1), "engine_off": in_engine(0)}
 
 
+def collision_pairs(robot: Robot, hops: int = 3) -> tuple[list[tuple[int, ...]], np.ndarray]:
+    """The robot's voxels (grid indices) and the pairs (k, 2) of surface voxels (fewer than 6
+    neighbours) more than `hops` bonds apart: those that may collide, in both simulators."""
+    voxels = [tuple(int(v) for v in p) for p in np.argwhere(np.asarray(robot.grid) > 0)]
+    index = {p: i for i, p in enumerate(voxels)}
+    steps = [s for axis in np.eye(3, dtype=int) for s in (axis, -axis)]
+    neighbours = [[index[q] for q in (tuple(np.add(p, s)) for s in steps) if q in index]
+                  for p in voxels]
+
+    def within(start: int) -> set[int]:
+        depth, queue = {start: 0}, deque([start])
+        while queue:
+            u = queue.popleft()
+            for v in neighbours[u] if depth[u] < hops else ():
+                if v not in depth:
+                    depth[v] = depth[u] + 1
+                    queue.append(v)
+        return set(depth)
+
+    surface = [i for i, n in enumerate(neighbours) if len(n) != 6]
+    near = {i: within(i) for i in surface}
+    pairs = [(a, b) for k, a in enumerate(surface) for b in surface[k + 1:] if b not in near[a]]
+    return voxels, np.array(pairs, dtype=int).reshape(-1, 2)
+
+
+def missed_contacts(robot: Robot, every: int = 2) -> tuple[int, int]:
+    """(samples of touching pairs in mjregen's walk, of them outside the engine's candidates)."""
+    voxels, pairs = collision_pairs(robot)
+    compiled = compile_robot(robot)
+    sim = simulation_of(compiled)
+    model, data = sim.model, sim.data
+    bodies = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, voxel_name(p)) for p in voxels]
+    size = compiled.physics.scene.voxel_size
+    steps = round(sum(compiled.physics.scene.timing(3)) / compiled.timestep)
+    previous, moved, candidates, touching, missed = None, np.inf, None, 0, 0
+    for _ in range(0, steps, every):
+        sim.run(every)
+        mujoco.mj_kinematics(model, data)
+        x = data.xpos[bodies] / size
+        moved += 0.0 if previous is None else float(np.max(np.linalg.norm(x - previous, axis=1)))
+        previous = x.copy()
+        distance = np.linalg.norm(x[pairs[:, 0]] - x[pairs[:, 1]], axis=1)
+        if moved > 0.5:
+            candidates, moved = distance < 2.0, 0.0
+        touching += int(np.count_nonzero(distance < 1.5))
+        missed += int(np.count_nonzero((distance < 1.5) & ~candidates))
+    return touching, missed
+
+
 def markdown(rows: dict[str, tuple[int, dict[str, float]]]) -> str:
     """The table: per robot its voxels, the four distances and the engine / mjregen ratios."""
     lines = ["| robot | voxels | mjregen | mjregen, no self-collision | engine | engine, no "
@@ -62,6 +123,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--voxelyze", type=Path, required=True,
                         help="folder of the paper's engine and its vxa.py")
     parser.add_argument("robots", nargs="+", help="3D robot files (.npy) or NAME=PATH")
+    parser.add_argument("--contacts", action="store_true",
+                        help="also count mjregen's contacts outside the engine's candidates")
     args = parser.parse_args(argv)
     try:
         engine = PaperEngine(args.voxelyze)
@@ -72,6 +135,10 @@ def main(argv: list[str] | None = None) -> int:
                 parser.error(f"{path}: a {robot.dim}D robot; the engine runs 3D grids")
             rows[name or Path(path).stem] = (robot.n_voxels, measure(robot, engine))
             print(markdown({k: rows[k] for k in list(rows)[-1:]}).splitlines()[-1], flush=True)
+            if args.contacts:
+                touching, missed = missed_contacts(robot)
+                print(f"  touching pair-samples {touching:,}, outside the engine's candidates "
+                      f"{missed:,}", flush=True)
     except (MjregenError, OSError, ValueError) as error:
         parser.error(str(error))
     print(markdown(rows))
