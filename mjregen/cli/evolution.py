@@ -98,10 +98,8 @@ def _add_task_arguments(task: argparse._ArgumentGroup) -> None:
 
 
 def _evolve(args: argparse.Namespace) -> int:
-    from mjregen.experiments.locomotion import evolve_grow_regrow, evolve_locomotion
-    from mjregen.growth.nca import NCAConfig
     from mjregen.search.backends import make_backend
-    from mjregen.tasks.grow_regrow import GrowRegrowTask
+    from mjregen.search.runs import run_evolution
 
     if args.backend == "serial" and args.workers is not None:
         raise MjregenError("--workers sets the process, thread or ray backend's workers; "
@@ -117,41 +115,41 @@ def _evolve(args: argparse.Namespace) -> int:
                                       ("--line-sigma", args.line_sigma)) if value is not None]
     if given:
         raise MjregenError(f"{', '.join(given)} set MAP-Elites; add --optimizer map-elites")
-    if args.resume:
-        task, ga, seed = _stored_run(args)
-        nca, physics, duration = task.nca, task.physics, task.duration
-        starts, start_seed, body = task.starts, task.start_seed, getattr(task, "body", "grid")
-        regrowth = ({"cut": task.cut, "cell_cost": task.cell_cost,
-                     "regrown_weight": task.regrown_weight}
-                    if isinstance(task, GrowRegrowTask) else None)
-    else:
-        dim = args.dim or 3
-        ga, seed = ga_config(args, f"{dim}d"), (0 if args.seed is None else args.seed)
-        nca = NCAConfig(dim=dim, kind=args.net or "ff")
-        physics, duration = physics_from_args(args), args.duration
-        starts = DEFAULT_STARTS if args.starts is None else args.starts
-        start_seed = seed
-        regrowth = _regrowth_objective(args, nca)
-        body = args.body or "grid"
-        if body == "sheet" and (dim != 2 or regrowth is not None):
-            raise MjregenError("--body sheet lays a 2D pattern flat: it needs --dim 2 and the "
-                               "locomotion task")
-    common = dict(out=args.out, nca=nca, ga=ga, seed=seed, physics=physics, duration=duration,
-                  starts=starts, start_seed=start_seed, resume=args.resume, force=args.force,
-                  progress=not args.quiet)
+    task, ga, seed = _stored_run(args) if args.resume else _new_run(args)
     with make_backend(args.backend, workers=args.workers, address=args.address) as backend:
-        if regrowth is None:
-            summary = evolve_locomotion(backend=backend, body=body, **common)
-        else:
-            summary = evolve_grow_regrow(backend=backend, **regrowth, **common)
+        summary = run_evolution(task, ga, seed=seed, out=args.out, backend=backend,
+                                resume=args.resume, force=args.force, progress=not args.quiet)
     if args.json:
         print_json({"out": str(summary.out), "generations": summary.generations,
-                          "best_fitness": summary.best_fitness,
-                          "best_generation": summary.best_generation})
+                    "best_fitness": summary.best_fitness,
+                    "best_generation": summary.best_generation})
     else:
         print(f"best fitness {summary.best_fitness:.4f} in generation {summary.best_generation}; "
               f"run folder {summary.out}")
     return 0
+
+
+def _new_run(args: argparse.Namespace) -> tuple:
+    """Task, GA settings and seed of a new run from the flags (defaults: the preset of
+    --dim, feed-forward, the locomotion task on grown grids)."""
+    from mjregen.growth.nca import NCAConfig
+    from mjregen.tasks.grow_regrow import GrowRegrowTask
+    from mjregen.tasks.locomotion import LocomotionTask
+
+    dim = args.dim or 3
+    ga, seed = ga_config(args, f"{dim}d"), (0 if args.seed is None else args.seed)
+    nca = NCAConfig(dim=dim, kind=args.net or "ff")
+    common = dict(nca=nca, physics=physics_from_args(args), duration=args.duration,
+                  starts=DEFAULT_STARTS if args.starts is None else args.starts,
+                  start_seed=seed)
+    regrowth = _regrowth_objective(args, nca)
+    body = args.body or "grid"
+    if body == "sheet" and (dim != 2 or regrowth is not None):
+        raise MjregenError("--body sheet lays a 2D pattern flat: it needs --dim 2 and the "
+                           "locomotion task")
+    if regrowth is not None:
+        return GrowRegrowTask(**common, **regrowth), ga, seed
+    return LocomotionTask(**common, body=body), ga, seed
 
 
 def _regrowth_flags(args: argparse.Namespace) -> list[str]:
