@@ -248,7 +248,7 @@ def with_body(args: argparse.Namespace, robot: Robot, physics) -> tuple:
 def _walk_report(args: argparse.Namespace, result, results: list, rule: int | None) -> dict:
     """The walk's JSON report: the first start's walk and, for several, all of them; fitness
     by the `locomotion_fitness` rule `rule`."""
-    from mjregen.tasks.fitness import locomotion_fitness
+    from mjregen.tasks.fitness import locomotion_fitness, starts_fitness
 
     report = {"robot": str(args.robot), "voxels": result.n_voxels, "distance": result.distance,
               "displacement": list(result.displacement), "heading": result.heading,
@@ -264,9 +264,7 @@ def _walk_report(args: argparse.Namespace, result, results: list, rule: int | No
             "seed": args.start_seed or 0, "distances": distances.tolist(),
             "mean": float(distances.mean()), "min": float(stable.min()) if stable.size else math.nan,
             "max": float(stable.max()) if stable.size else math.nan, "unstable": len(unstable),
-            "fitness": (locomotion_fitness(unstable[0], rule=rule) if unstable
-                        else float(np.mean([locomotion_fitness(r, rule=rule)
-                                            for r in results])))}
+            "fitness": starts_fitness(results, rule=rule)}
     return report
 
 

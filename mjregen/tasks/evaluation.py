@@ -16,14 +16,14 @@ import numpy as np
 from mjregen.grid import Material, Robot
 from mjregen.physics import Physics
 from mjregen.physics.simulation import simulate_starts
-from mjregen.tasks.fitness import locomotion_fitness
+from mjregen.tasks.fitness import starts_fitness
 
 
 @dataclass(frozen=True)
 class RobotJob:
     """A robot grid (int8 array, any valid shape) with its physics, measured time (s; None =
     the scene's), number of starts (>= 1; starts 0, 1, ...), the starts' seed and the
-    fitness rule (2 or 3, `locomotion_fitness`; None = the grid's dimension)."""
+    fitness rule (2 or 3, `mjregen.tasks.fitness.locomotion_fitness`; None = the grid's dimension)."""
 
     grid: np.ndarray
     physics: Physics
@@ -85,8 +85,7 @@ def evaluate_robot(job: RobotJob) -> RobotEvaluation:
     distances = tuple(r.distance for r in results)
     first = results[0]
     return RobotEvaluation(
-        fitness=(locomotion_fitness(unstable[0], rule=job.rule) if unstable
-                 else float(np.mean([locomotion_fitness(r, rule=job.rule) for r in results]))),
+        fitness=starts_fitness(results, rule=job.rule),
         distance=float(np.mean(distances)), distance_min=float(np.min(distances)),
         distances=distances, n_voxels=first.n_voxels, stable=not unstable,
         reason=unstable[0].reason if unstable else "",

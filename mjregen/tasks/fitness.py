@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
+import numpy as np
+
 from mjregen.physics.simulation import Result
 
 VOXEL_COST = 0.0583  # 3D fitness penalty per voxel (≈ 20/343, the paper's)
@@ -23,3 +27,13 @@ def locomotion_fitness(result: Result, *, rule: int | None = None) -> float:
     if dim == 3:
         return result.distance - VOXEL_COST * result.n_voxels
     return result.distance
+
+
+def starts_fitness(results: Sequence[Result], *, rule: int | None = None) -> float:
+    """The fitness of a robot walked from several starts: the mean of their
+    `locomotion_fitness`, or the unstable one's when any start was unstable (one unstable
+    start makes the robot unstable)."""
+    unstable = [r for r in results if not r.stable]
+    if unstable:
+        return locomotion_fitness(unstable[0], rule=rule)
+    return float(np.mean([locomotion_fitness(r, rule=rule) for r in results]))

@@ -19,6 +19,7 @@ from mjregen.tasks.fitness import (
     UNSTABLE_FITNESS,
     VOXEL_COST,
     locomotion_fitness,
+    starts_fitness,
 )
 
 NCA = NCAConfig(dim=2, kind="ff")
@@ -292,3 +293,20 @@ def test_the_fitness_rule_can_be_the_other_dimension():
         walked.distance - VOXEL_COST * 9)
     with pytest.raises(ValueError, match="no locomotion fitness rule for dimension 4"):
         locomotion_fitness(walked, rule=4)
+
+
+def test_the_score_of_several_starts_is_their_mean_unless_one_is_unstable():
+    import dataclasses
+
+    from mjregen.physics.simulation import simulate_starts
+
+    robot = np.zeros((5, 5, 3), dtype=np.int8)
+    robot[1:4, 1:4, 1] = Material.MUSCLE_PLUS
+    walks = simulate_starts(robot, physics=QUICK, duration=0.02, starts=range(3))
+    assert len({w.distance for w in walks}) == 3  # the starts differ
+    for rule in (2, 3):
+        assert starts_fitness(walks, rule=rule) == pytest.approx(
+            np.mean([locomotion_fitness(w, rule=rule) for w in walks]), rel=1e-15)
+    fallen = [walks[0], dataclasses.replace(walks[1], stable=False, reason="NaN"), walks[2]]
+    assert starts_fitness(fallen) == UNSTABLE_FITNESS[3]
+    assert starts_fitness(fallen, rule=2) == UNSTABLE_FITNESS[2]
