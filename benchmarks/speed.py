@@ -561,7 +561,8 @@ def _head_and_result(report: dict, extra: dict, evolution: dict | None,
             f"{len(evolution['generation_wall_s'])} generations, 2 worker processes): "
             f"{evolution['evaluations_per_s']:.2f} evaluations per second; the paper's 300 "
             f"generations at its mean time per generation: "
-            f"**{evolution['projected_paper_run_h']:.1f} h**.")
+            f"**{evolution['projected_paper_run_h']:.1f} h** (an upper bound: the first "
+            "generations grow the largest robots; whole runs below).")
     lines += recorded_bullets(recorded)
     return lines
 
