@@ -18,7 +18,6 @@ one half).
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import sys
 from collections import deque
 from pathlib import Path
@@ -30,15 +29,9 @@ from mjregen.errors import MjregenError
 from mjregen.grid import Robot
 from mjregen.physics import Physics
 from mjregen.physics.compile import compile_robot
-from mjregen.physics.model import voxel_name
+from mjregen.physics.model import RobotLayout, robot_layout
 from mjregen.physics.simulation import simulate, simulation_of
 from mjregen.validation.engine import PAPER_DT_FRACTION, PaperEngine
-
-
-def without_self_collision(physics: Physics) -> Physics:
-    """`physics` with the voxel pipeline's self-collision off."""
-    return dataclasses.replace(physics, pipeline=dataclasses.replace(physics.pipeline,
-                                                                     collision_radius=0.0))
 
 
 def measure(robot: Robot, engine: PaperEngine) -> dict[str, float]:
@@ -52,18 +45,17 @@ def measure(robot: Robot, engine: PaperEngine) -> dict[str, float]:
                                  settings={"SelfColEnabled": self_collision})["distance"]
 
     return {"mjregen": simulate(robot, physics=physics).distance,
-            "mjregen_off": simulate(robot, physics=without_self_collision(physics)).distance,
+            "mjregen_off": simulate(robot, physics=physics.replace(collision_radius=0.0)).distance,
             "engine": in_engine(1), "engine_off": in_engine(0)}
 
 
-def collision_pairs(robot: Robot, hops: int = 3) -> tuple[list[tuple[int, ...]], np.ndarray]:
-    """The robot's voxels (grid indices) and the pairs (k, 2) of surface voxels (fewer than 6
-    neighbours) more than `hops` bonds apart: those that may collide, in both simulators."""
-    voxels = [tuple(int(v) for v in p) for p in np.argwhere(np.asarray(robot.grid) > 0)]
-    index = {p: i for i, p in enumerate(voxels)}
-    steps = [s for axis in np.eye(3, dtype=int) for s in (axis, -axis)]
-    neighbours = [[index[q] for q in (tuple(np.add(p, s)) for s in steps) if q in index]
-                  for p in voxels]
+def collision_pairs(layout: RobotLayout, hops: int = 3) -> np.ndarray:
+    """The pairs (k, 2) of the robot's surface voxels (`RobotLayout.surface`, in body order)
+    more than `hops` face bonds apart: those that may collide, in both simulators."""
+    neighbours: list[list[int]] = [[] for _ in layout.voxels]
+    for i, j, _ in layout.bonds:
+        neighbours[i].append(j)
+        neighbours[j].append(i)
 
     def within(start: int) -> set[int]:
         depth, queue = {start: 0}, deque([start])
@@ -75,19 +67,18 @@ def collision_pairs(robot: Robot, hops: int = 3) -> tuple[list[tuple[int, ...]],
                     queue.append(v)
         return set(depth)
 
-    surface = [i for i, n in enumerate(neighbours) if len(n) != 6]
+    surface = np.flatnonzero(layout.surface).tolist()
     near = {i: within(i) for i in surface}
     pairs = [(a, b) for k, a in enumerate(surface) for b in surface[k + 1:] if b not in near[a]]
-    return voxels, np.array(pairs, dtype=int).reshape(-1, 2)
+    return np.array(pairs, dtype=int).reshape(-1, 2)
 
 
 def missed_contacts(robot: Robot, every: int = 2) -> tuple[int, int]:
     """(samples of touching pairs in mjregen's walk, of them outside the engine's candidates)."""
-    voxels, pairs = collision_pairs(robot)
     compiled = compile_robot(robot)
+    pairs = collision_pairs(robot_layout(robot, compiled.physics, set(), 0.0))
     sim = simulation_of(compiled)
-    model, data = sim.model, sim.data
-    bodies = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, voxel_name(p)) for p in voxels]
+    model, data, bodies = sim.model, sim.data, compiled.body_ids
     size = compiled.physics.scene.voxel_size
     steps = round(sum(compiled.physics.scene.timing(3)) / compiled.timestep)
     previous, moved, candidates, touching, missed = None, np.inf, None, 0, 0

@@ -696,8 +696,8 @@ def _step_rows(steps: dict, safety: float) -> list[str]:
         edge = ("" if row["engine_steps"] is None else
                 f"{safety * row['steps'] / row['engine_steps']:.2f}")
         rows.append(f"| {DOC_ROBOTS.get(name, name)} | {row['zeta']:.2f} | "
-                     f"{row['damping_cost']:.2f} | {engine} / {row['steps']:,} | {edge} | "
-                     f"{row['own_damping_step']:.2f} | {row['rotations_held']:.3f} |")
+                    f"{row['damping_cost']:.2f} | {engine} / {row['steps']:,} | {edge} | "
+                    f"{row['own_damping_step']:.2f} | {row['rotations_held']:.3f} |")
     return rows
 
 

@@ -23,7 +23,8 @@ from mjregen.tasks.fitness import starts_fitness
 class RobotJob:
     """A robot grid (int8 array, any valid shape) with its physics, measured time (s; None =
     the scene's), number of starts (>= 1; starts 0, 1, ...), the starts' seed and the
-    fitness rule (2 or 3, `mjregen.tasks.fitness.locomotion_fitness`; None = the grid's dimension)."""
+    fitness rule (2 or 3, `mjregen.tasks.fitness.locomotion_fitness`; None = the grid's
+    dimension)."""
 
     grid: np.ndarray
     physics: Physics
