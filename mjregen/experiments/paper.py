@@ -342,10 +342,15 @@ def best_run(runs: list[RunInfo]) -> RunInfo:
     return max(runs, key=lambda r: (r.best_fitness, -r.seed))
 
 
+def robot_name(root: str | Path, run: RunInfo) -> str:
+    """The name of `run`'s best robot in measurements kept beside the runs
+    (``transfer.json``): its path relative to `root`, e.g. ``3d_ff/seed_0/best/gen_0285.npy``."""
+    return run.best_files()[1].relative_to(Path(root)).as_posix()
+
+
 def _robot_entry(root: str | Path, run: RunInfo) -> tuple[str, tuple[Path, Physics]]:
-    """A run's best robot as (its path relative to `root`, (path, `RunInfo.robot_physics`))."""
-    path = run.best_files()[1]
-    return path.relative_to(Path(root)).as_posix(), (path, run.robot_physics)
+    """A run's best robot as (`robot_name`, (path, `RunInfo.robot_physics`))."""
+    return robot_name(root, run), (run.best_files()[1], run.robot_physics)
 
 
 def best_robots(root: str | Path = DEFAULT_ROOT) -> dict[str, tuple[Path, Physics]]:

@@ -384,10 +384,11 @@ def test_results_report_writes_every_section(results, tmp_path, monkeypatch):
         run.best_files()[1].relative_to(results).as_posix()
         for run in ex.list_runs(results)["3d_ff"]}
     other = next(n for n in each if n.startswith("3d_ff/") and n != name)
-    transfer.write_text(json.dumps([{"name": name, "engine": 12.5, "transfers": True},
-                                    {"name": other, "engine": 1.0, "transfers": False},
-                                    {"name": "3d_ff/seed_9/best/gen_0001.npy", "engine": 1.0,
-                                     "transfers": False}]))
+    transfer.write_text(json.dumps([
+        {"name": name, "engine": 12.5, "distance": 13.0, "transfers": True},
+        {"name": other, "engine": 1.0, "distance": 20.0, "transfers": False},
+        {"name": "3d_ff/seed_9/best/gen_0001.npy", "engine": 1.0, "distance": 30.0,
+         "transfers": False}]))
     try:
         assert results_report.main(["--root", str(results), "--assets", str(assets),
                                     "--out", str(out)]) == 0
@@ -398,6 +399,14 @@ def test_results_report_writes_every_section(results, tmp_path, monkeypatch):
             if line.startswith(("| 3d_ff | 2 |", "| 2d_ff | 2 |"))}
     assert "| 12.5 (transfers) | 1 of 2 |" in rows["| 3d_ff"]  # the other run's does not
     assert "| not measured | not measured |" in rows["| 2d_ff"]
+    # the farthest walker that transfers, not the one that walks farther but does not
+    top = ex.read_run(results / name.split("/best/")[0])
+    assert (f"Farthest 3D walker whose robot transfers (3d_ff seed {top.seed}, generation "
+            f"{top.best_generation}): 13 voxel lengths in 0.5 s from fresh starts, 12.5 in "
+            "the paper's engine") in text
+    assert "the farthest 3D walker that transfers, 12.5 voxel lengths in the paper's engine" in text
+    # how to reproduce the runs of a root that is not the default, with their numbers
+    assert f"--root {results} --only 3d_ff --runs 2 --workers 1" in text
     for heading in ("## How to reproduce", "## Settings", "## Fitness over generations",
                     "## Shipped NCAs", "## Regeneration", "The paper's Table 1", "## Discussion"):
         assert heading in text, heading
@@ -455,6 +464,20 @@ def test_the_network_comparison_tests_the_runs_at_their_common_generation():
         3, many_ff, many_lstm)
 
 
+def test_curves_and_comparisons_count_the_finished_runs_once_any_has_finished():
+    """A run under way would cut every curve and the comparison to its few generations."""
+    from types import SimpleNamespace
+
+    done = [SimpleNamespace(complete=True, seed=s) for s in (0, 1)]
+    going = SimpleNamespace(complete=False, seed=2, generations_done=10, generations_planned=300)
+    assert results_report._finished_or_all(done + [going]) == (done, [going])
+    assert results_report._finished_or_all([going]) == ([going], [])
+    assert results_report._under_way([going]) == "seed 2 at generation 10 of 300"
+    text = results_report._network_comparison(
+        3, [SimpleNamespace(best=np.ones(3))], [SimpleNamespace(best=np.ones(3))], left_out=2)
+    assert "(the last all runs reached; 2 runs under way not counted)" in text
+
+
 def test_the_records_of_a_results_folder_regenerate_its_report(results, tmp_path):
     records = tmp_path / "records"
     for run in sorted(results.glob("*/seed_*")):
@@ -470,7 +493,7 @@ def test_the_records_of_a_results_folder_regenerate_its_report(results, tmp_path
     assert regrowth.run_regen_job(job, progress=False) is None  # a finished record
     reports = []
     for root in (results, restored):
-        out = tmp_path / root.name / "results.md"
+        out = tmp_path / "reports" / root.name / "results.md"
         assert results_report.main(["--root", str(root), "--assets", str(tmp_path / "none"),
                                     "--out", str(out), "--no-render"]) == 0
         text = out.read_text().split("\n", 3)[3]  # past the line naming the root
