@@ -1,7 +1,7 @@
 """Evaluation throughput of the 3D locomotion pipeline on each backend, and a real short
 evolution.
 
-    python benchmarks/evolution.py backends [--pop 20] [--seed 0] [--bonds beam|tendons]
+    python benchmarks/evolution.py backends [--pop 20] [--seed 0] [--rounds 2] [--bonds beam|tendons]
         [--scene stepper=mujoco --scene timestep_rule=stiffest_bond]
         [--scene pipeline=mujoco --scene contact_shape=point]
         [--backends serial process thread] [--json out.json]
@@ -42,7 +42,7 @@ import subprocess
 import sys
 import tempfile
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -59,7 +59,40 @@ from mjregen.tasks.evaluation import PopulationEvaluation
 from mjregen.tasks.locomotion import LocomotionTask
 
 
+def _cpu_seconds() -> tuple[float, float, float]:
+    """(CPU s the whole machine has been busy, CPU s of this process and its waited-for
+    children, wall s): their differences over a measurement give the cores other work
+    used meanwhile."""
+    with open("/proc/stat") as handle:
+        ticks = [int(v) for v in handle.readline().split()[1:]]
+    busy = sum(ticks[:3]) + sum(ticks[5:8])  # user nice system, irq softirq steal
+    own = sum(getattr(resource.getrusage(who), field) for who in
+              (resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN) for field in ("ru_utime", "ru_stime"))
+    return busy / os.sysconf("SC_CLK_TCK"), own, time.perf_counter()
+
+
+def _time_backend(task: LocomotionTask, genomes: np.ndarray, name: str) -> tuple[dict, np.ndarray]:
+    """One evaluation of `genomes` on backend `name` (serial: 1 worker, else 2) as in a run,
+    whose backend lives for all its generations: the backend is started and warmed up (its
+    workers evaluate one genome each, timed as ``start_s``) before the timed evaluation, by
+    a copy of `task` with an empty cache (the task keeps its robots' results between
+    evaluations). Returns (times in s, the fitnesses)."""
+    workers = 1 if name == "serial" else 2
+    start = time.perf_counter()
+    with make_backend(name, workers=workers) as backend:
+        replace(task).evaluate(genomes[:workers], backend)
+        start = time.perf_counter() - start
+        wall, cpu = time.perf_counter(), time.process_time()
+        result = replace(task).evaluate(genomes, backend)
+        wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+    return ({"workers": workers, "start_s": start, "wall_s": wall, "driver_cpu_s": cpu,
+             "simulation_cpu_s": result.sim_cpu_time, "distinct_robots": result.n_distinct},
+            result.fitness)
+
+
 def backends(args: argparse.Namespace) -> dict:
+    """Each backend's evaluation of one 3D population, `args.rounds` interleaved rounds,
+    medians (wall, the driver's CPU and the simulations' CPU, s)."""
     overrides = dict(item.split("=", 1) for item in args.scene)
     physics = Physics().replace(**overrides)  # `pipeline=mujoco` switches pipeline first
     if args.bonds is not None:
@@ -67,20 +100,26 @@ def backends(args: argparse.Namespace) -> dict:
     bonds = getattr(physics.pipeline, "bond_element", "tendons")  # MuJoCo's: 8 tendons
     task = LocomotionTask(nca=NCAConfig(dim=3, kind="ff"), physics=physics)
     genomes = random_genomes(task.nca, args.pop, seed=args.seed)
-    rows, reference = [], None
-    for name in args.backends:
-        workers = 1 if name == "serial" else 2
-        with make_backend(name, workers=workers) as backend:
-            wall, cpu = time.perf_counter(), time.process_time()
-            result = task.evaluate(genomes, backend)
-            wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
-        if reference is None:
-            reference = result.fitness
+    before = _cpu_seconds()
+    samples: dict[str, list[dict]] = {name: [] for name in args.backends}
+    reference = None
+    for _ in range(args.rounds):  # interleaved, so that the machine's noise falls on all
+        for name in args.backends:
+            sample, fitness = _time_backend(task, genomes, name)
+            reference = fitness if reference is None else reference
+            samples[name].append(sample | {"same": bool(np.array_equal(fitness, reference))})
+    busy, own, elapsed = (after - start for after, start in zip(_cpu_seconds(), before))
+    rows = []
+    for name, runs in samples.items():
+        wall = statistics.median(r["wall_s"] for r in runs)
         rows.append({
-            "backend": name, "workers": workers, "wall_s": wall,
-            "driver_cpu_s": cpu, "simulation_cpu_s": result.sim_cpu_time,
-            "evals_per_s": args.pop / wall, "distinct_robots": result.n_distinct,
-            "same_fitness_as_first_backend": bool(np.array_equal(result.fitness, reference)),
+            "backend": name, "workers": runs[0]["workers"], "wall_s": wall,
+            "wall_s_rounds": [r["wall_s"] for r in runs],
+            "start_s": statistics.median(r["start_s"] for r in runs),
+            "driver_cpu_s": statistics.median(r["driver_cpu_s"] for r in runs),
+            "simulation_cpu_s": statistics.median(r["simulation_cpu_s"] for r in runs),
+            "evals_per_s": args.pop / wall, "distinct_robots": runs[0]["distinct_robots"],
+            "same_fitness_as_first_backend": all(r["same"] for r in runs),
         })
     serial = next((row["wall_s"] for row in rows if row["backend"] == "serial"), None)
     for row in rows:
@@ -97,8 +136,9 @@ def backends(args: argparse.Namespace) -> dict:
         print(f"{r['backend']:8s} {r['wall_s']:8.1f} {r['simulation_cpu_s']:9.1f} {r['evals_per_s']:8.3f} "
               f"{'—' if efficiency is None else f'{efficiency:.2f}':>10s} "
               f"{r['projected_paper_run_h']:11.1f}")
-    return {"population": args.pop, "seed": args.seed, "pipeline": physics.pipeline.name,
-            "bonds": bonds, "scene": overrides, "rows": rows}
+    return {"population": args.pop, "seed": args.seed, "rounds": args.rounds,
+            "other_work_cores": (busy - own) / elapsed,
+            "pipeline": physics.pipeline.name, "bonds": bonds, "scene": overrides, "rows": rows}
 
 
 @dataclass(frozen=True)
@@ -292,6 +332,38 @@ def _run_rate(runs: list[dict]) -> tuple[float, float, float]:
     return rate, cpu, per_generation
 
 
+def backends_section(measured: dict) -> list[str]:
+    """docs/performance.md's section on the backends (`backends` results): processes
+    against threads and one evaluation at a time."""
+    lines = [
+        "", "## Processes or threads", "",
+        f"`python benchmarks/evolution.py backends --pop {measured['population']} --rounds "
+        f"{measured['rounds']}`: one 3D population (the paper's initial genes, seed "
+        f"{measured['seed']}, {measured['rows'][0]['distinct_robots']} distinct robots, "
+        f"{measured['pipeline']} pipeline, {measured['bonds']} bonds) evaluated on each "
+        "backend as in a run, whose backend lives for all its generations: started and warmed "
+        "up first (its workers evaluate one genome each: start s), then timed, with an empty "
+        "cache each time; the backends interleave round by round, medians of the rounds; other work "
+        f"used {measured['other_work_cores']:.2f} of the machine's cores on average meanwhile "
+        "(/proc/stat less this process's CPU). Driver CPU: the evaluating process's "
+        "(the threads' simulations included, not the worker processes'); simulation CPU: "
+        "the simulations' own, wherever they ran. Efficiency: serial wall time / (wall time x "
+        "workers).", "",
+        "| backend | workers | start s | wall s (rounds) | driver CPU s | simulation CPU s | "
+        "evaluations / s | efficiency | the same fitnesses as serial |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in measured["rows"]:
+        efficiency = r["parallel_efficiency"]
+        lines.append(
+            f"| {r['backend']} | {r['workers']} | {r['start_s']:.1f} | {r['wall_s']:.1f} "
+            f"({', '.join(f'{w:.1f}' for w in r['wall_s_rounds'])}) | {r['driver_cpu_s']:.1f} | "
+            f"{r['simulation_cpu_s']:.1f} | {r['evals_per_s']:.2f} | "
+            f"{'–' if efficiency is None else f'{efficiency:.2f}'} | "
+            f"{'yes' if r['same_fitness_as_first_backend'] else 'no'} |")
+    return lines
+
+
 def throughput_section(compared: dict, starts: dict | None) -> list[str]:
     """docs/performance.md's section on evolutions before and after, the compile profile and
     the K-start cost (`compare` and `starts` results)."""
@@ -394,7 +466,7 @@ def main() -> None:
                         help="compare: a checkout of the earlier code (git worktree add DIR "
                              "COMMIT)")
     parser.add_argument("--rounds", type=int, default=2,
-                        help="compare and starts: interleaved rounds (medians)")
+                        help="backends, compare and starts: interleaved rounds (medians)")
     parser.add_argument("--ks", type=int, nargs="+", default=[1, 3],
                         help="starts: numbers of starts (the first is the reference)")
     parser.add_argument("--json", help="also write the results here")

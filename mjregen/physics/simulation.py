@@ -54,7 +54,9 @@ class Result:
       steps: number of steps made.
       sim_time: simulated seconds.
       timestep: s.
-      wall_time, cpu_time: seconds spent compiling and simulating (wall clock, process CPU).
+      wall_time, cpu_time: seconds spent compiling and simulating (wall clock, and CPU of
+        the thread that ran them, so that simulations on parallel threads are not counted
+        twice).
       times: ``(steps + 1,)`` s, when `record`; else None.
       com: ``(steps + 1, 3)`` m, centre of mass at `times`, when `record`; else None.
     """
@@ -291,7 +293,7 @@ def simulate_starts(
     element ``i`` equals ``simulate(robot, ..., start=starts[i])`` exactly. Each `Result`'s
     wall and CPU time include an equal share of the compile. Arguments and errors as for
     `simulate`."""
-    wall0, cpu0 = time.perf_counter(), time.process_time()
+    wall0, cpu0 = time.perf_counter(), time.thread_time()
     robot = robot if isinstance(robot, Robot) else Robot(robot)
     physics = Physics() if physics is None else physics
     if duration is not None and not (math.isfinite(duration) and duration >= 0):
@@ -299,11 +301,11 @@ def simulate_starts(
     if robot.is_empty:
         empty = Result(distance=0.0, dim=robot.dim, n_voxels=0, stable=True, reason="",
                        steps=0, sim_time=0.0, timestep=0.0,
-                       wall_time=time.perf_counter() - wall0, cpu_time=time.process_time() - cpu0)
+                       wall_time=time.perf_counter() - wall0, cpu_time=time.thread_time() - cpu0)
         return [empty for _ in starts]
     compiled = compile_robot(robot, physics=physics, starts=starts, start_seed=start_seed)
     share = ((time.perf_counter() - wall0) / len(starts),
-             (time.process_time() - cpu0) / len(starts))
+             (time.thread_time() - cpu0) / len(starts))
     return [walk(compiled, start, duration=duration, record=record, compile_time=share)
             for start in starts]
 
@@ -314,7 +316,7 @@ def walk(compiled: CompiledRobot, start: int = 0, *, duration: float | None = No
     """Settle and walk `compiled` from its start `start`, or from the state of `sim` (a
     `simulation_of(compiled)` whose state the caller changed, e.g. perturbed finer than a
     keyframe holds); `compile_time`: (wall, CPU) s to add to the result's. As `simulate`."""
-    wall0, cpu0 = time.perf_counter(), time.process_time()
+    wall0, cpu0 = time.perf_counter(), time.thread_time()
     robot, physics = compiled.robot, compiled.physics
     dim = robot.dim
     settle, measured = physics.scene.timing(dim)
@@ -347,5 +349,5 @@ def walk(compiled: CompiledRobot, start: int = 0, *, duration: float | None = No
         displacement=(float(dx), float(dy)) if stable else (math.nan, math.nan),
         stable=stable, reason=reason, steps=sim.steps, sim_time=sim.steps * dt, timestep=dt,
         wall_time=time.perf_counter() - wall0 + compile_time[0],
-        cpu_time=time.process_time() - cpu0 + compile_time[1],
+        cpu_time=time.thread_time() - cpu0 + compile_time[1],
         times=None if com is None else np.arange(sim.steps + 1) * dt, com=com)
