@@ -1,0 +1,44 @@
+"""`benchmarks/evolution.py backends`: each timing simulates, whatever the task remembers."""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from mjregen.growth.nca import NCAConfig
+from mjregen.growth.networks import random_genomes
+from mjregen.search.backends import make_backend
+from mjregen.tasks.locomotion import LocomotionTask
+
+_SPEC = importlib.util.spec_from_file_location(
+    "evolution_benchmark", Path(__file__).resolve().parents[2] / "benchmarks" / "evolution.py")
+evolution = importlib.util.module_from_spec(_SPEC)
+sys.modules[_SPEC.name] = evolution
+_SPEC.loader.exec_module(evolution)
+
+
+def test_a_backend_timing_simulates_robots_the_task_already_scored():
+    task = LocomotionTask(nca=NCAConfig(dim=3, kind="ff"), duration=0.01)
+    genomes = random_genomes(task.nca, 3, seed=0)
+    with make_backend("serial") as backend:
+        first = task.evaluate(genomes, backend)  # the task now remembers these robots
+    for name in ("serial", "thread"):
+        sample, fitness = evolution._time_backend(task, genomes, name)
+        assert np.array_equal(fitness, first.fitness)
+        assert sample["simulation_cpu_s"] > 0 and sample["distinct_robots"] == first.n_distinct
+        assert sample["workers"] == (1 if name == "serial" else 2)
+
+
+def test_the_machines_busy_time_holds_this_process_cpu_time():
+    """Other work = the machine's busy CPU less this process's: the first holds the second."""
+    import time
+
+    before = evolution._cpu_seconds()
+    end = time.process_time() + 0.5
+    while time.process_time() < end:  # 0.5 CPU s of this process
+        pass
+    busy, own, wall = (after - start for after, start in zip(evolution._cpu_seconds(), before))
+    assert own >= 0.5 and busy >= 0.9 * own and wall > 0
