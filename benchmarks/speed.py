@@ -731,6 +731,25 @@ def _real_evolution_section(evolution: dict | None) -> list[str]:
     return lines
 
 
+def _doc_sections(args: argparse.Namespace) -> list[str]:
+    """The sections of docs/performance.md read from the other benchmarks' JSON files."""
+    sections = []
+    if args.throughput:
+        sections += _sibling("evolution").throughput_section(
+            json.loads(args.throughput.read_text()),
+            json.loads(args.starts.read_text()) if args.starts else None)
+    if args.backends:
+        sections += _sibling("evolution").backends_section(
+            json.loads(args.backends.read_text()))
+    if args.gpu:
+        sections += _sibling("batched_bonds").markdown_section(
+            json.loads(args.gpu.read_text()))
+    if args.settle_rest:
+        sections += _sibling("settle_rest").markdown_section(
+            [json.loads(path.read_text()) for path in args.settle_rest])
+    return sections
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--voxelyze", type=Path, help="folder of the paper engine's vxa.py")
@@ -776,20 +795,7 @@ def main() -> None:
                  "chaos": chaos(table["paper_tripod"]), "rounds": args.rounds,
                  "models": args.models,
                  "engine": args.voxelyze is not None}
-        sections = []
-        if args.throughput:
-            sections += _sibling("evolution").throughput_section(
-                json.loads(args.throughput.read_text()),
-                json.loads(args.starts.read_text()) if args.starts else None)
-        if args.backends:
-            sections += _sibling("evolution").backends_section(
-                json.loads(args.backends.read_text()))
-        if args.gpu:
-            sections += _sibling("batched_bonds").markdown_section(
-                json.loads(args.gpu.read_text()))
-        if args.settle_rest:
-            sections += _sibling("settle_rest").markdown_section(
-                [json.loads(path.read_text()) for path in args.settle_rest])
+        sections = _doc_sections(args)
         args.doc.write_text(performance_doc(report, extra, evolution, all_recorded_evolutions(),
                                             sections))
         print(f"wrote {args.doc}")
