@@ -66,8 +66,8 @@ def _cpu_seconds() -> tuple[float, float, float]:
     with open("/proc/stat") as handle:
         ticks = [int(v) for v in handle.readline().split()[1:]]
     busy = sum(ticks[:3]) + sum(ticks[5:8])  # user nice system, irq softirq steal
-    own = sum(getattr(resource.getrusage(who), field) for who in
-              (resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN) for field in ("ru_utime", "ru_stime"))
+    own = sum(getattr(resource.getrusage(who), kind) for who in
+              (resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN) for kind in ("ru_utime", "ru_stime"))
     return busy / os.sysconf("SC_CLK_TCK"), own, time.perf_counter()
 
 
@@ -78,10 +78,10 @@ def _time_backend(task: LocomotionTask, genomes: np.ndarray, name: str) -> tuple
     a copy of `task` with an empty cache (the task keeps its robots' results between
     evaluations). Returns (times in s, the fitnesses)."""
     workers = 1 if name == "serial" else 2
-    start = time.perf_counter()
+    started = time.perf_counter()
     with make_backend(name, workers=workers) as backend:
         replace(task).evaluate(genomes[:workers], backend)
-        start = time.perf_counter() - start
+        start = time.perf_counter() - started
         wall, cpu = time.perf_counter(), time.process_time()
         result = replace(task).evaluate(genomes, backend)
         wall, cpu = time.perf_counter() - wall, time.process_time() - cpu

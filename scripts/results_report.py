@@ -553,7 +553,7 @@ class Report:
         best_3d_walker.mp4."""
         self.add("## The best 3D walker", "")
         runs = [run for name, group in self.runs.items() if name.startswith("3d_")
-                for run in group]
+                for run in _finished_or_all(group)[0]]
         if not runs:
             self.add("No 3D runs.", "")
             return
@@ -824,9 +824,9 @@ class Report:
                 f"paper's engine, {100 * m['engine'] / high:.0f}–{100 * m['engine'] / low:.0f} "
                 f"% {table}.")
             return
-        best3d = [(_rewalked(ex.best_run(self.runs[n])), n,
-                   _best_distance(ex.best_run(self.runs[n]))) for n in ("3d_ff", "3d_lstm")
-                  if n in self.runs]
+        tops = {n: ex.best_run(_finished_or_all(self.runs[n])[0]) for n in ("3d_ff", "3d_lstm")
+                if n in self.runs}
+        best3d = [(_rewalked(top), n, _best_distance(top)) for n, top in tops.items()]
         best3d = [b for b in best3d if math.isfinite(b[0])]
         if best3d:
             best = max(best3d)
