@@ -33,6 +33,11 @@ best run (``--best-of records/paper --json records/paper/transfer.json``).
 already in the ``--json`` file: the report counts, per condition, the runs whose best robot
 transfers. ``--json`` keeps the entries of the file for robots not measured again.
 
+``--table1 ROOT`` also walks in the engine the original, damaged and regrown robot of every
+finished regrowth run under ROOT/table1 not yet in ROOT/table1_engine.json, and adds them
+there (`mjregen.experiments.table1.measure_in_engine`; scripts/results_report.py shows them
+beside the runs' own distances).
+
 ``--assets DIR`` also measures every evolved walker the package ships (``DIR/nca/
 manifest.json``, ``DIR/robots/walkers/walkers.json``) and writes each one's measurements,
 the rule and the verdict into its manifest entry as "transfer" (`tests/test_assets.py`
@@ -117,7 +122,7 @@ def record(manifest: Path, where: list, row: Transfer, starts: int, physics: Phy
         handle.write("\n")
 
 
-def main(argv: list[str] | None = None) -> int:
+def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--voxelyze", type=Path, required=True,
                         help="folder of the paper's engine and its vxa.py")
@@ -136,8 +141,16 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--each-run", type=Path, metavar="ROOT",
                         help="also measure the best robot of every finished run under ROOT "
                              "not yet in --json")
+    parser.add_argument("--table1", type=Path, metavar="ROOT",
+                        help="also walk the robots of the regrowth runs under ROOT/table1 "
+                             "in the engine, into ROOT/table1_engine.json")
     parser.add_argument("--json", type=Path,
                         help="write the measurements here (entries of other robots kept)")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
     args = parser.parse_args(argv)
     try:
         kept = read_measurements(args.json) if args.json is not None else {}
@@ -163,6 +176,10 @@ def main(argv: list[str] | None = None) -> int:
         engine = PaperEngine(args.voxelyze)
     except MjregenError as error:
         parser.error(str(error))
+    if args.table1 is not None:
+        from mjregen.experiments.table1 import measure_in_engine
+
+        measure_in_engine(args.table1, engine)
     rows = []
     for name, path, manifest, where, physics in todo:
         rows.append(measure_transfer(Robot.load(path), name=name, starts=args.starts,
@@ -170,7 +187,8 @@ def main(argv: list[str] | None = None) -> int:
         if manifest is not None:
             record(manifest, where, rows[-1], args.starts, physics)
         print(markdown(rows[-1:], args.starts).splitlines()[-1], flush=True)
-    print(markdown(rows, args.starts))
+    if rows:
+        print(markdown(rows, args.starts))
     if args.json is not None:
         kept.update((r.name, asdict(r) | {"distance": r.distance, "transfers": r.transfers})
                     for r in rows)

@@ -115,6 +115,16 @@ def percent(value: float | None) -> str:
     return fmt(value, 99) if value is None or not math.isfinite(value) else f"{value:.0f}"
 
 
+def _spread(spread, spec: str, unit: str = "") -> str:
+    """A `mjregen.experiments.table1.Spread` as "mean (low–high)`unit`" ("mean`unit`" for
+    one value, "–" for none), each number formatted by `spec`."""
+    if spread.n == 0:
+        return "–"
+    if spread.n == 1 or spread.low == spread.high:
+        return format(spread.mean, spec) + unit
+    return f"{spread.mean:{spec}} ({spread.low:{spec}}–{spread.high:{spec}}){unit}"
+
+
 def _git() -> str:
     try:
         done = subprocess.run(["git", "rev-parse", "--short", "HEAD"], check=False, cwd=ROOT,
@@ -626,6 +636,7 @@ class Report:
                      "of walking (unstable runs show –).", "")
             for name, why in withdrawn.items():
                 self.add(f"{name} is withdrawn: {why}", "")
+        self.table1_runs(rows)
         self.paper_robot_regrowth()
         self.add(f"**The paper's Table 1** ({source}; Voxelyze, robots of its own evolutions, "
                  "regrowth GA 1000 × 1000)", "",
@@ -638,6 +649,66 @@ class Report:
                      f"({row['regrown_percent']:g} %) |")
         self.add("")
         self.paper_rows = rows
+
+    def table1_runs(self, paper_rows: list[dict]) -> None:
+        """Table 1 from the regrowth runs under <root>/table1 (`mjregen.experiments.table1`):
+        each row's mean and range over its seeds, here and in the paper's engine."""
+        from mjregen.experiments.table1 import (ENGINE_FILE, list_table1_runs,
+                                                read_engine_distances, table1_rows)
+
+        rows = table1_rows(list_table1_runs(self.args.root))
+        if not rows:
+            return
+        measured = read_engine_distances(self.args.root)
+        paper = {(r["robot"].lower(), r["network"]): r for r in paper_rows}
+        self.add("**Table 1 at the paper's scale** (the regrowth runs under "
+                 f"`{_rel(Path(self.args.root) / 'table1', ROOT)}`, one row per robot, regrowth "
+                 "network and start; mean (range) over the row's runs; the paper: its Table 1, "
+                 "one run of its best network per robot)", "",
+                 "| robot (regrowth network) | start | runs (GA) | similarity (of 729) / paper | "
+                 "original: ours / engine / paper | damaged, % of original: ours / engine / "
+                 "paper | regrown, % of original: ours | engine | paper |",
+                 "|---|---|---|---|---|---|---|---|---|")
+        for row in rows:
+            theirs = paper.get((row.robot, "recurrent" if row.net == "lstm" else "feed forward"))
+            self._table1_row(row, theirs, measured)
+        self.add("", "Distances in voxel lengths over 0.5 s, from the fitness's start (ours) and "
+                 "in the paper's engine as its code runs it (`python benchmarks/transfer.py "
+                 f"--voxelyze DIR --table1 ROOT`, kept in ROOT/{ENGINE_FILE}; – where not "
+                 "measured). Start: the CA state regrown from (\"saved\": the biped's as the "
+                 "paper's code saved it; \"alpha 1\": the grid alone; \"grown\": the state an "
+                 "NCA evolved to grow the robot from its seed grew, `--damage seed`).", "")
+
+    def _table1_row(self, row, theirs: dict | None, measured: dict) -> None:
+        """One row of `table1_runs` and its fact; `theirs`: the paper's row for the robot and
+        network (None where the paper has none)."""
+        root = self.args.root
+        net = NAMES.get(row.net, row.net)
+        paper = (lambda text: f" / {text}") if theirs else (lambda text: "")
+        ga = ", ".join(sorted({f"{r.population} × {r.generations}" for r in row.runs}))
+        similarity = _spread(row.similarity(), ".0f")
+        ours = {role: (_spread(row.distance(role), ".3g"),
+                       _spread(row.percent(role), ".0f", " %") if role != "original" else "")
+                for role in ("original", "damaged", "regrown")}
+        engine = {role: (_spread(row.engine_distance(root, measured, role), ".3g"),
+                         _spread(row.engine_percent(root, measured, role), ".0f", " %"))
+                  for role in ("original", "damaged", "regrown")}
+        self.add(f"| {row.robot.capitalize()} ({net}) | {row.start} | {len(row.runs)} ({ga}) | "
+                 f"{similarity}{paper(theirs and theirs['similarity'])} | "
+                 f"{ours['original'][0]} / {engine['original'][0]}"
+                 f"{paper(theirs and format(theirs['original'], 'g'))} | "
+                 f"{ours['damaged'][1]} / {engine['damaged'][1]}"
+                 f"{paper(theirs and format(theirs['damaged_percent'], 'g') + ' %')} | "
+                 f"{ours['regrown'][0]}, {ours['regrown'][1]} | "
+                 f"{engine['regrown'][0]}, {engine['regrown'][1]} | "
+                 + (f"{theirs['regrown']:g}, {theirs['regrown_percent']:g} %" if theirs else "–")
+                 + " |")
+        self.facts.append(
+            f"Table 1, {row.robot} regrown by {net} NCAs from the {row.start} state "
+            f"(n = {len(row.runs)} runs): {similarity} of 729 cells; the regrown robot walks "
+            f"{ours['regrown'][1]} of the original here and {engine['regrown'][1]} in the "
+            "paper's engine"
+            + (f" (the paper: {theirs['regrown_percent']:g} %, one run)." if theirs else "."))
 
     def table1_header(self) -> None:
         self.add("# Table 1 at the paper's regrowth scale", "",

@@ -1,0 +1,188 @@
+"""The paper's Table 1 from several regrowth runs per row, and their robots in its engine.
+
+Runs live under ``<root>/table1/<robot>_<name>/seed_<s>`` (`mjregen regen --paper ROBOT
+--out ...`); every finished one (a recovery.json) that regrows the paper's cut counts, and
+rows group them by robot, regrowth network and start (how the CA state regrown from was
+made: "saved", "alpha 1" or "grown"). Runs that grow a robot from its seed (``--damage
+seed``, the source of a "grown" start) are not rows. The paper's engine walks each run's
+original, damaged and regrown robot once (`measure_in_engine`); the distances are kept in
+``<root>/table1_engine.json`` by the robot files' paths relative to `root`.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from mjregen.experiments.recovery import ROLES
+from mjregen.fileio import atomic_open
+from mjregen.grid import Robot
+from mjregen.validation.engine import PaperEngine
+
+FOLDER = "table1"
+ENGINE_FILE = "table1_engine.json"
+PAPER_CUT = "paper cut"  # the damage label of a run that regrows the paper's cut
+
+
+@dataclass(frozen=True)
+class Spread:
+    """Mean, smallest and largest of `n` values (NaN for none)."""
+
+    mean: float
+    low: float
+    high: float
+    n: int
+
+    @classmethod
+    def of(cls, values: list[float]) -> Spread:
+        if not values:
+            return cls(math.nan, math.nan, math.nan, 0)
+        return cls(float(np.mean(values)), float(min(values)), float(max(values)), len(values))
+
+
+@dataclass(frozen=True)
+class Table1Run:
+    """One finished regrowth run.
+
+    Attributes:
+      folder: its run folder.
+      robot: the robot's name (the folder's parent's name up to its first "_").
+      net: the regrowth network, "ff" or "lstm".
+      start: how the CA state regrown from was made ("saved", "alpha 1", "grown").
+      seed: the GA's seed.
+      population, generations: the GA's population and the generations it ran.
+      recovery: its recovery.json (similarity, distances in voxel lengths, percentages).
+    """
+
+    folder: Path
+    robot: str
+    net: str
+    start: str
+    seed: int
+    population: int
+    generations: int
+    recovery: dict
+
+
+def list_table1_runs(root: str | Path) -> list[Table1Run]:
+    """Every finished run under ``root/table1`` that regrows the paper's cut, in folder order."""
+    runs = []
+    for folder in sorted(Path(root, FOLDER).glob("*/seed_*")):
+        if not (folder / "recovery.json").is_file():
+            continue
+        config = json.loads((folder / "config.json").read_text())
+        task = config["task"]
+        if task.get("damage") != PAPER_CUT:
+            continue
+        with (folder / "metrics.csv").open() as metrics:
+            generations = sum(1 for _ in metrics) - 1
+        runs.append(Table1Run(folder=folder, robot=folder.parent.name.split("_")[0],
+                              net=task["nca"]["kind"], start=task.get("start", "?"),
+                              seed=int(config["seed"]),
+                              population=int(config["ga"]["population"]),
+                              generations=generations,
+                              recovery=json.loads((folder / "recovery.json").read_text())))
+    return runs
+
+
+@dataclass(frozen=True)
+class Table1Row:
+    """The runs of one robot, regrowth network and start: their recovery as spreads."""
+
+    robot: str
+    net: str
+    start: str
+    runs: tuple[Table1Run, ...]
+
+    @property
+    def grid_cells(self) -> int:
+        return int(self.runs[0].recovery["grid_cells"])
+
+    def similarity(self) -> Spread:
+        """Cells of the regrown grid equal to the original's."""
+        return Spread.of([r.recovery["similarity"]["regrown"] for r in self.runs])
+
+    def distance(self, role: str) -> Spread:
+        """mjregen's distance of the `role` robot (voxel lengths)."""
+        return Spread.of([r.recovery["distance"][role] for r in self.runs])
+
+    def percent(self, role: str) -> Spread:
+        """mjregen's distance of the `role` robot in % of its run's original's."""
+        return Spread.of([r.recovery["percent_of_original"][role] for r in self.runs
+                          if r.recovery["percent_of_original"][role] is not None])
+
+    def engine_distance(self, root: str | Path, measured: dict, role: str) -> Spread:
+        """The paper engine's distance of the `role` robot over the runs it walked."""
+        return Spread.of([d for d in (measured.get(engine_key(root, r.folder, role))
+                                      for r in self.runs) if d is not None])
+
+    def engine_percent(self, root: str | Path, measured: dict, role: str) -> Spread:
+        """The engine's distance of the `role` robot in % of its run's original's, over the
+        runs whose both robots it walked (an original at rest gives no percentage)."""
+        values = []
+        for run in self.runs:
+            mine, original = (measured.get(engine_key(root, run.folder, r))
+                              for r in (role, "original"))
+            if mine is not None and original:
+                values.append(100.0 * mine / original)
+        return Spread.of(values)
+
+
+def table1_rows(runs: list[Table1Run]) -> list[Table1Row]:
+    """The runs grouped by (robot, network, start), sorted by those."""
+    groups: dict[tuple[str, str, str], list[Table1Run]] = {}
+    for run in runs:
+        groups.setdefault((run.robot, run.net, run.start), []).append(run)
+    return [Table1Row(*key, runs=tuple(sorted(group, key=lambda r: r.seed)))
+            for key, group in sorted(groups.items())]
+
+
+def engine_key(root: str | Path, folder: Path, role: str) -> str:
+    """The key of a run's `role` robot in table1_engine.json: its path relative to `root`."""
+    return (Path(folder) / f"{role}.npy").relative_to(Path(root)).as_posix()
+
+
+def read_engine_distances(root: str | Path) -> dict[str, float | None]:
+    """``root/table1_engine.json`` ({} if there is none).
+
+    Raises:
+      ValueError: the file is not a JSON object of distances.
+    """
+    path = Path(root, ENGINE_FILE)
+    if not path.is_file():
+        return {}
+    try:
+        measured = json.loads(path.read_text())
+    except json.JSONDecodeError as error:
+        raise ValueError(f"{path} is not JSON: {error}") from error
+    if not isinstance(measured, dict) or not all(
+            value is None or isinstance(value, (int, float)) for value in measured.values()):
+        raise ValueError(f"{path} should map robot files to distances")
+    return measured
+
+
+def measure_in_engine(root: str | Path, engine: PaperEngine, *, progress=print
+                      ) -> dict[str, float | None]:
+    """Walk in `engine` the original, damaged and regrown robot of every run of
+    `list_table1_runs` not yet in ``root/table1_engine.json`` (a grid already walked is not
+    walked again), add them to that file and return all its distances (voxel lengths)."""
+    measured = read_engine_distances(root)
+    by_grid: dict[bytes, float | None] = {}
+    for run in list_table1_runs(root):
+        for role in ROLES:
+            key = engine_key(root, run.folder, role)
+            if key in measured:
+                continue
+            robot = Robot.load(run.folder / f"{role}.npy")
+            grid = robot.grid.tobytes()
+            if grid not in by_grid:
+                by_grid[grid] = engine.distance(robot) if not robot.is_empty else 0.0
+            measured[key] = by_grid[grid]
+            progress(f"{key}: {measured[key]}")
+            with atomic_open(Path(root, ENGINE_FILE), "w") as handle:
+                json.dump(measured, handle, indent=1, sort_keys=True)
+    return measured
