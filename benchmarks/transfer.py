@@ -38,6 +38,11 @@ finished regrowth run under ROOT/table1 not yet in ROOT/table1_engine.json, and 
 there (`mjregen.experiments.table1.measure_in_engine`; scripts/results_report.py shows them
 beside the runs' own distances).
 
+``--grow-regrow ROOT`` also walks in the engine the grown robot of the best NCA of every
+finished grow-regrow run (ROOT/grow_regrow_*) and 3D growth-only run (ROOT/3d_*), the
+paper's cut of it and what the same NCA regrows from the cut, into
+ROOT/grow_regrow_engine.json (`mjregen.experiments.self_regrowth.measure_in_engine`).
+
 ``--assets DIR`` also measures every evolved walker the package ships (``DIR/nca/
 manifest.json``, ``DIR/robots/walkers/walkers.json``) and writes each one's measurements,
 the rule and the verdict into its manifest entry as "transfer" (`tests/test_assets.py`
@@ -144,6 +149,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--table1", type=Path, metavar="ROOT",
                         help="also walk the robots of the regrowth runs under ROOT/table1 "
                              "in the engine, into ROOT/table1_engine.json")
+    parser.add_argument("--grow-regrow", type=Path, metavar="ROOT",
+                        help="also walk the grown, damaged and regrown robots of the best NCA "
+                             "of every finished grow-regrow and 3D run under ROOT in the "
+                             "engine, into ROOT/grow_regrow_engine.json")
     parser.add_argument("--json", type=Path,
                         help="write the measurements here (entries of other robots kept)")
     return parser
@@ -176,10 +185,12 @@ def main(argv: list[str] | None = None) -> int:
         engine = PaperEngine(args.voxelyze)
     except MjregenError as error:
         parser.error(str(error))
-    if args.table1 is not None:
-        from mjregen.experiments.table1 import measure_in_engine
+    from mjregen.experiments import self_regrowth, table1
 
-        measure_in_engine(args.table1, engine)
+    for root, measure in ((args.table1, table1.measure_in_engine),
+                          (args.grow_regrow, self_regrowth.measure_in_engine)):
+        if root is not None:
+            measure(root, engine)
     rows = []
     for name, path, manifest, where, physics in todo:
         rows.append(measure_transfer(Robot.load(path), name=name, starts=args.starts,

@@ -19,7 +19,11 @@ Reads the evolution runs under --root (runs/results/<condition>/seed_<n>), the r
 Each condition's best robot walked in the paper's engine, and how many finished runs end on
 a robot that transfers, are read from --root's transfer.json when it is there (`python
 benchmarks/transfer.py --voxelyze DIR --best-of ROOT --each-run ROOT --json
-ROOT/transfer.json`; the engine is not shipped).
+ROOT/transfer.json`; the engine is not shipped). The Table 1 runs (ROOT/table1/<robot>_<net>/
+seed_<n>, `mjregen.experiments.table1`) and the grow-regrow runs (ROOT/grow_regrow_*/seed_<n>,
+judged beside the 3D growth-only runs by `mjregen.experiments.self_regrowth`) are shown with
+their robots' walks in the engine where ROOT keeps them (`benchmarks/transfer.py --table1 ROOT
+--grow-regrow ROOT`).
 
 It works on whatever exists: a condition without runs gets a "not run" line. The paper's
 Table 1 is parsed from the paper's LaTeX (--paper, default $MJREGEN_PAPER or ./paper; a
@@ -789,74 +793,118 @@ class Report:
         return {w["name"]: w["why"] for w in json.loads(index.read_text()).get("withdrawn", [])}
 
     def self_regrowth(self) -> None:
-        """One NCA that grows and regrows (`mjregen evolve --task grow-regrow`): the best of
-        each run under <root>/grow_regrow_<net>/seed_<n>, beside the growth-only runs."""
+        """One NCA that grows and regrows (`mjregen evolve --task grow-regrow`): the best NCA
+        of each run under <root>/grow_regrow_<name>/seed_<n>, beside the growth-only 3D runs
+        of the same network and evaluations judged the same way, compared by exact tests."""
+        from mjregen.experiments.engine_walks import read_kept
+        from mjregen.experiments.self_regrowth import ENGINE_FILE, self_regrowth_report
+
         self.add("## One NCA that grows and regrows", "")
         folders = sorted(Path(self.args.root).glob("grow_regrow_*/seed_*"))
-        runs = [ex.read_run(f) for f in folders if (f / "config.json").is_file()]
-        runs = [r for r in runs if r.generations_done]
+        runs = [r for r in (ex.read_run(f) for f in folders if (f / "config.json").is_file())
+                if r.generations_done]
         if not runs:
-            self.add("Not run (`mjregen evolve --task grow-regrow --dim 3 --net ff --out "
-                     "runs/results/grow_regrow_ff/seed_0`).", "")
+            self.add("Not run (`mjregen evolve --task grow-regrow --regrown-weight 0.5 "
+                     "--cell-cost 0 --dim 3 --net ff --preset 3d --out "
+                     "runs/paper/grow_regrow_walk_ff/seed_0`).", "")
             return
+        nets = sorted({r.config["task"]["nca"]["kind"] for r in runs})
+        alone = [r for net in nets for r in self.runs.get(f"3d_{net}", []) if r.complete]
         self.add("The paper needed two networks, one that grows a walker and one that regrows "
                  "it. Here one NCA is evolved for both (`--task grow-regrow`: fitness = "
                  "locomotion fitness − cell cost × cells wrongly regrown after the paper's cut, "
                  "from its own grown CA state, memory included; with a regrown weight w > 0 the "
                  "locomotion fitness is (1 − w) × the grown robot's + w × the regrown robot's, "
-                 "`--regrown-weight`). Its best robot walks, is cut "
-                 "(the paper's cut and 8 random half-space cuts) and regrown by the same NCA; the "
-                 "original, damaged and regrown robots of the paper's cut walk as in Table 1. "
-                 "Beside it, the best growth-only NCA of the same budget (`3d_<net>`).", "",
-                 "| run | GA (pop × gens done) | cell cost, regrown weight | fitness | distance | "
-                 "similarity "
-                 "after the paper's cut (of 729) | after random cuts: mean (min) | damaged / "
-                 "regrown distance (% of original) | growth-only best distance (same budget) | "
-                 "distance / growth-only |",
-                 "|---|---|---|---|---|---|---|---|---|---|")
-        for run in runs:
-            similarity = self._self_regrowth_run(run)
-        self.add("", "Random cuts: " + ", ".join(f"`{k}`" for k in similarity
-                                                 if k != "paper") + ". Distances in voxel "
-                 "lengths over 0.5 s.", "")
+                 "`--regrown-weight`). Each run's best NCA grows its robot, which is cut (the "
+                 "paper's cut and 8 random half-space cuts) and regrown by the same NCA; the "
+                 "original, damaged and regrown robots of the paper's cut walk as in Table 1, "
+                 "here and in the paper's engine. Below them, the finished growth-only runs "
+                 "of the same network and the same evaluations (`3d_<net>`), whose best NCA "
+                 "is judged the same way: what a growth-only NCA regrows from the cut.", "",
+                 "| run | GA (pop × gens done) | cell cost, regrown weight | fitness | "
+                 "similarity after the paper's cut (of 729) | after random cuts: mean (min) | "
+                 "original / damaged / regrown (% of original) | in the paper's engine |",
+                 "|---|---|---|---|---|---|---|---|")
+        measured = read_kept(Path(self.args.root) / ENGINE_FILE)
+        reports = {}
+        for run in runs + alone:
+            nca, physics, duration = self._nca_and_walk(run)
+            reports[run.path] = report = self_regrowth_report(nca, physics=physics,
+                                                              duration=duration)
+            self._self_regrowth_row(run, report, measured)
+        cuts = [k for k in report.similarity if k != "paper"]
+        self.add("", "Random cuts: " + ", ".join(f"`{k}`" for k in cuts) + ". Distances in "
+                 "voxel lengths over 0.5 s from the fitness's start (ours) and as the paper's "
+                 "code runs its engine (`python benchmarks/transfer.py --voxelyze DIR "
+                 f"--grow-regrow ROOT`, kept in ROOT/{ENGINE_FILE}; – where not measured).", "")
+        for condition in sorted({r.condition for r in runs}):
+            mine = [r for r in runs if r.condition == condition]
+            finished = [r for r in mine if r.complete]
+            net = mine[0].config["task"]["nca"]["kind"]
+            same_net = [r for r in alone if r.config["task"]["nca"]["kind"] == net]
+            self._self_regrowth_comparison(condition, finished, same_net, reports)
 
-    def _self_regrowth_run(self, run: ex.RunInfo) -> dict[str, int]:
-        """A grow-regrow run's row and fact; returns its similarities by cut."""
-        from mjregen.experiments.self_regrowth import self_regrowth_report
+    def _nca_and_walk(self, run: ex.RunInfo) -> tuple:
+        """(best NCA, physics, duration) of a run, for `self_regrowth_report`."""
         from mjregen.growth.checkpoint import load_nca
         from mjregen.tasks.locomotion import LocomotionTask
 
-        npz, _ = run.best_files()
-        nca, meta = load_nca(npz)
         task = LocomotionTask.from_config({**run.config["task"], "task": "locomotion"})
-        report = self_regrowth_report(nca, physics=task.physics, duration=task.duration)
-        cuts = [v for k, v in report.similarity.items() if k != "paper"]
+        return load_nca(run.best_files()[0])[0], task.physics, task.duration
+
+    def _self_regrowth_row(self, run: ex.RunInfo, report, measured: dict) -> None:
+        """A run's row of the grow-regrow table."""
+        from mjregen.experiments.self_regrowth import engine_key
+
+        task = run.config["task"]
         distance = report.recovery.distance
-        growth_only = self.runs.get(f"3d_{run.config['task']['nca']['kind']}")
-        alone = _best_distance(ex.best_run(growth_only)) if growth_only else math.nan
-        ratio = distance["original"] / alone if math.isfinite(alone) and alone else math.nan
-        percent = {role: 100 * distance[role] / distance["original"]
-                   if distance["original"] else math.nan for role in ("damaged", "regrown")}
+        cuts = [v for k, v in report.similarity.items() if k != "paper"]
+        weights = (f"{task['cell_cost']:g}, {task.get('regrown_weight', 0.0):g}"
+                   if task.get("task") == "grow-regrow" else "growth only")
+        under_way = "" if run.complete else f" (under way, of {run.generations_planned})"
+        engine = [measured.get(engine_key(self.args.root, run, role))
+                  for role in ("original", "damaged", "regrown")]
+
+        def walks(values: list) -> str:
+            if values[0] is None:
+                return "–"
+            shares = [f"{fmt_distance(v, 3)}" + (f" ({100 * v / values[0]:.0f} %)"
+                                                  if v is not None and values[0] else "")
+                      for v in values[1:]]
+            return " / ".join([fmt_distance(values[0], 3), *shares])
         self.add(f"| {run.condition} seed {run.seed} | {run.config['ga']['population']} × "
-                 f"{run.generations_done} | {run.config['task']['cell_cost']:g}, "
-                 f"{run.config['task'].get('regrown_weight', 0.0):g} | "
-                 f"{meta['fitness']:.4g} | {fmt_distance(distance['original'], 4)} | "
+                 f"{run.generations_done}{under_way} | {weights} | {run.best_fitness:.4g} | "
                  f"{report.similarity['paper']} | {np.mean(cuts):.1f} ({min(cuts)}) | "
-                 f"{fmt_distance(distance['damaged'], 4)} ({percent['damaged']:.0f} %) / "
-                 f"{fmt_distance(distance['regrown'], 4)} ({percent['regrown']:.0f} %) | "
-                 f"{fmt_distance(alone, 4)} | {ratio:.0%} |")
-        unfinished = ("" if run.complete else f", unfinished: {run.generations_done} of "
-                      f"{run.generations_planned} generations")
-        today = _rewalked(run)
-        alone_today = _rewalked(ex.best_run(growth_only)) if growth_only else math.nan
-        self.facts.append(
-            f"One NCA that grows and regrows ({run.condition} seed {run.seed}{unfinished}): "
-            f"similarity {report.similarity['paper']}/729 after the paper's cut (goal 700), walking "
-            f"{ratio:.0%} as far as the best growth-only NCA of the same budget (goal 80 %) "
-            f"from the start its run scored; from {REWALK_STARTS} symmetry-broken starts it "
-            f"walks {fmt_distance(today, 3)} against the growth-only NCA's "
-            f"{fmt_distance(alone_today, 3)} ({today / alone_today:.0%}).")
-        return report.similarity
+                 f"{walks([distance[r] for r in ('original', 'damaged', 'regrown')])} | "
+                 f"{walks(engine)} |")
+
+    def _self_regrowth_comparison(self, condition: str, runs: list[ex.RunInfo],
+                                  alone: list[ex.RunInfo], reports: dict) -> None:
+        """The finished runs of a grow-regrow `condition` against the growth-only runs of
+        its network: the grown robot's and the regrown robot's distance, by exact tests
+        (`mjregen.search.compare`)."""
+        from mjregen.search.compare import compare_groups
+
+        if not runs or not alone:
+            self.add(f"{condition}: no comparison yet; it needs finished runs of it and "
+                     "finished growth-only runs of its network.", "")
+            return
+        for role, what in (("original", "the grown robot's distance (what walking the "
+                                        "regrown robot too costs)"),
+                           ("regrown", "the regrown robot's distance after the paper's cut "
+                                       "(what it gains)")):
+            groups = [[reports[r.path].recovery.distance[role] for r in group]
+                      for group in (runs, alone)]
+            comparison = compare_groups(*groups)
+            verdict = ("a difference at the 5 % level" if comparison.p_mann_whitney < 0.05
+                       else "no difference this n can show" if comparison.smallest_p >= 0.05
+                       else "no difference at the 5 % level")
+            sentence = (f"One NCA that grows and regrows ({condition}) against growth-only "
+                        f"NCAs of the same evaluations, {what}: "
+                        f"{comparison.sentence(('grow-regrow', 'growth-only'))}: {verdict}.")
+            self.add(f"- {sentence}")
+            self.facts.append(sentence)
+        self.add("")
 
     def quality_diversity(self) -> None:
         """docs/quality_diversity.md (`scripts/qd_comparison.py --report`), one level down."""

@@ -11,15 +11,17 @@ original, damaged and regrown robot once (`measure_in_engine`); the distances ar
 
 from __future__ import annotations
 
+import functools
 import json
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from mjregen.experiments.engine_walks import read_kept, walk_new
 from mjregen.experiments.recovery import ROLES
-from mjregen.fileio import atomic_open
 from mjregen.grid import Robot
 from mjregen.validation.engine import PaperEngine
 
@@ -152,37 +154,15 @@ def read_engine_distances(root: str | Path) -> dict[str, float | None]:
     Raises:
       ValueError: the file is not a JSON object of distances.
     """
-    path = Path(root, ENGINE_FILE)
-    if not path.is_file():
-        return {}
-    try:
-        measured = json.loads(path.read_text())
-    except json.JSONDecodeError as error:
-        raise ValueError(f"{path} is not JSON: {error}") from error
-    if not isinstance(measured, dict) or not all(
-            value is None or isinstance(value, (int, float)) for value in measured.values()):
-        raise ValueError(f"{path} should map robot files to distances")
-    return measured
+    return read_kept(Path(root, ENGINE_FILE))
 
 
-def measure_in_engine(root: str | Path, engine: PaperEngine, *, progress=print
-                      ) -> dict[str, float | None]:
+def measure_in_engine(root: str | Path, engine: PaperEngine, *,
+                      progress: Callable[[str], None] = print) -> dict[str, float | None]:
     """Walk in `engine` the original, damaged and regrown robot of every run of
     `list_table1_runs` not yet in ``root/table1_engine.json`` (a grid already walked is not
     walked again), add them to that file and return all its distances (voxel lengths)."""
-    measured = read_engine_distances(root)
-    by_grid: dict[bytes, float | None] = {}
-    for run in list_table1_runs(root):
-        for role in ROLES:
-            key = engine_key(root, run.folder, role)
-            if key in measured:
-                continue
-            robot = Robot.load(run.folder / f"{role}.npy")
-            grid = robot.grid.tobytes()
-            if grid not in by_grid:
-                by_grid[grid] = engine.distance(robot) if not robot.is_empty else 0.0
-            measured[key] = by_grid[grid]
-            progress(f"{key}: {measured[key]}")
-            with atomic_open(Path(root, ENGINE_FILE), "w") as handle:
-                json.dump(measured, handle, indent=1, sort_keys=True)
-    return measured
+    robots = ((engine_key(root, run.folder, role),
+               functools.partial(Robot.load, run.folder / f"{role}.npy"))
+              for run in list_table1_runs(root) for role in ROLES)
+    return walk_new(Path(root, ENGINE_FILE), robots, engine, progress=progress)

@@ -508,3 +508,47 @@ def test_results_report_on_nothing_says_not_run(tmp_path):
                                 "--out", str(out), "--no-render"]) == 0
     text = out.read_text()
     assert text.count("not run") >= 4 and "No evolved NCA is shipped yet" in text
+
+
+def test_grow_regrow_runs_are_judged_beside_growth_only_runs_here_and_in_the_engine(
+        results, tmp_path):
+    from mjregen.experiments import self_regrowth
+    from mjregen.tasks.grow_regrow import GrowRegrowTask
+    from mjregen.validation.engine import PaperEngine
+
+    root = tmp_path / "root"
+    shutil.copytree(results, root)
+    # a grow-regrow run whose best NCA is a growth-only run's (its judging is the same)
+    run = root / "grow_regrow_walk_ff" / "seed_0"
+    shutil.copytree(root / "3d_ff" / "seed_1", run)
+    config = json.loads((run / "config.json").read_text())
+    task = LocomotionTask.from_config(config["task"])
+    config["task"] = GrowRegrowTask(nca=task.nca, physics=task.physics, duration=task.duration,
+                                    cell_cost=0.0, regrown_weight=0.5).to_config()
+    config["seed"] = 0
+    (run / "config.json").write_text(json.dumps(config))
+    engine = tmp_path / "engine"
+    engine.mkdir()
+    (engine / "vxa.py").write_text("def run(grid):\n"
+                                   "    return {'distance': float((grid > 0).sum()), 'cpu_s': 0}\n")
+    measured = self_regrowth.measure_in_engine(root, PaperEngine(engine), progress=lambda _: None)
+    # two growth-only runs and the grow-regrow run, three robots each, walked as far as voxels
+    nca, _ = load_nca(ex.read_run(run).best_files()[0])
+    robots = self_regrowth.self_regrowth_robots(nca)
+    assert {k: v for k, v in measured.items() if k.startswith("grow_regrow_walk_ff/")} == {
+        f"grow_regrow_walk_ff/seed_0/{role}": float(robot.n_voxels) for role, robot in robots.items()}
+    assert len(measured) == 9 and robots["original"].n_voxels > robots["damaged"].n_voxels
+    out = tmp_path / "docs" / "results.md"
+    assert results_report.main(["--root", str(root), "--assets", str(tmp_path), "--out", str(out),
+                                "--no-render"]) == 0
+    text = out.read_text()
+    row = next(line for line in text.splitlines() if line.startswith("| grow_regrow_walk_ff seed 0"))
+    assert "| 0, 0.5 |" in row and f"| {robots['original'].n_voxels} / " in row
+    alone = next(line for line in text.splitlines() if line.startswith("| 3d_ff seed 1 | 4 × 2 |"))
+    assert "| growth only |" in alone
+    # the same NCA judged twice: the same regrowth, the same walks, the same engine distances
+    assert row.split(" | ")[3:] == alone.split(" | ")[3:]
+    assert ("(grow_regrow_walk_ff) against growth-only NCAs of the same evaluations, the "
+            "grown robot's distance "
+            "(what walking the regrown robot too costs): grow-regrow") in text
+    assert "(n=1) vs growth-only" in text and "no difference this n can show" in text
