@@ -1,0 +1,45 @@
+#!/bin/bash
+# The runs of records/paper still to do, as two lines of work, one per core:
+#   bash records/paper_queue.sh a    and    bash records/paper_queue.sh b
+# (from the repository root, after `mkdir -p runs/paper && cp -r records/paper/* runs/paper/`).
+# Every command resumes its run folder where one exists; a finished run returns at once, so
+# both lines can be started again after any interruption. A failing command stops its line.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+resume() { if [ -f "$1/config.json" ]; then echo --resume; fi; }
+
+evolve_3d() {  # NET SEED: a 3D run of the paper's settings
+    local out=runs/paper/3d_$1/seed_$2
+    mjregen evolve --dim 3 --net "$1" --preset 3d --pop 100 --gens 300 --truncation 20 \
+        --elites 20 --sigma 0.1 --seed "$2" --backend serial --quiet --out "$out" $(resume "$out")
+}
+
+regen() {  # ROBOT NET SEED: Table 1 at the paper's regrowth scale
+    local out=runs/paper/table1/$1_$2/seed_$3
+    mjregen regen --paper "$1" --net "$2" --gens 1001 --seed "$3" --no-video --quiet \
+        --out "$out" $(resume "$out")
+}
+
+grow_regrow() {  # SEED: one NCA that grows and regrows, judged by function
+    local out=runs/paper/grow_regrow_walk_ff/seed_$1
+    mjregen evolve --task grow-regrow --regrown-weight 0.5 --cell-cost 0 --dim 3 --net ff \
+        --preset 3d --seed "$1" --backend serial --quiet --out "$out" $(resume "$out")
+}
+
+case "${1:-}" in
+    a)
+        for seed in 0 1 2 3 4 5 6 7; do evolve_3d ff "$seed"; done
+        evolve_3d lstm 7
+        for seed in 0 1 2; do regen biped ff "$seed"; regen tripod ff "$seed"; regen multiped lstm "$seed"; done
+        regen biped lstm 0; regen tripod lstm 0; regen multiped ff 0
+        ;;
+    b)
+        for seed in 0 1 2 3 4 5 6; do evolve_3d lstm "$seed"; done
+        for seed in 0 1 2; do grow_regrow "$seed"; done
+        python scripts/qd_comparison.py --root runs/paper/qd --seeds 0 1 2 --pop 100 --gens 300
+        ;;
+    *)
+        echo "usage: bash records/paper_queue.sh a|b" >&2
+        exit 2
+        ;;
+esac
