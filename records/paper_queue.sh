@@ -20,6 +20,20 @@ regen() {  # ROBOT NET SEED: Table 1 at the paper's regrowth scale
         --out "$out" $(resume "$out")
 }
 
+grown() {  # ROBOT NET: Table 1 from the robot's grown CA state, where an NCA grows it exactly
+    local from_seed=runs/paper/table1/$1_from_seed/seed_0
+    mjregen regen --paper "$1" --damage seed --net "$2" --gens 1001 --seed 0 --no-video \
+        --quiet --out "$from_seed" $(resume "$from_seed")
+    if python -c "import json, sys; sys.exit(json.load(open('$from_seed/recovery.json'))
+                  ['similarity']['regrown'] != 729)"; then
+        local out=runs/paper/table1/$1_$2_grown/seed_0
+        mjregen regen --checkpoint "$from_seed/regrowth.npz" --net "$2" --gens 1001 --seed 0 \
+            --no-video --quiet --out "$out" $(resume "$out")
+    else
+        echo "$1: the NCA evolved to grow it from its seed does not grow it exactly" >&2
+    fi
+}
+
 grow_regrow() {  # SEED: one NCA that grows and regrows, judged by function
     local out=runs/paper/grow_regrow_walk_ff/seed_$1
     mjregen evolve --task grow-regrow --regrown-weight 0.5 --cell-cost 0 --dim 3 --net ff \
@@ -32,6 +46,7 @@ case "${1:-}" in
         evolve_3d lstm 7
         for seed in 0 1 2; do regen biped ff "$seed"; regen tripod ff "$seed"; regen multiped lstm "$seed"; done
         regen biped lstm 0; regen tripod lstm 0; regen multiped ff 0
+        grown tripod ff; grown multiped lstm
         ;;
     b)
         for seed in 0 1 2 3 4 5 6; do evolve_3d lstm "$seed"; done
