@@ -4,6 +4,8 @@
 # (from the repository root, after `mkdir -p runs/paper && cp -r records/paper/* runs/paper/`).
 # Every command resumes its run folder where one exists; a finished run returns at once, so
 # both lines can be started again after any interruption. A failing command stops its line.
+#   bash records/paper_queue.sh snapshot
+# keeps every run of runs/paper with a generation done in records/paper (scripts/snapshot_runs.py).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 resume() { if [ -f "$1/config.json" ]; then echo --resume; fi; }
@@ -40,6 +42,26 @@ grow_regrow() {  # SEED: one NCA that grows and regrows, judged by function
         --preset 3d --seed "$1" --backend serial --quiet --out "$out" $(resume "$out")
 }
 
+started() {  # the run folders among the arguments with a generation (an iteration) done
+    local run
+    for run in "$@"; do
+        if [ -f "$run/metrics.csv" ] && [ "$(wc -l < "$run/metrics.csv")" -gt 1 ]; then
+            echo "$run"
+        fi
+    done
+}
+
+snapshot() {  # FOLDER RUN...: keep the started runs among RUN... in records/paper/FOLDER
+    local into=$1
+    shift
+    local runs
+    runs=$(started "$@")
+    if [ -n "$runs" ]; then
+        # shellcheck disable=SC2086  # run folders hold no spaces
+        python scripts/snapshot_runs.py --into "records/paper$into" $runs
+    fi
+}
+
 case "${1:-}" in
     a)
         for seed in 0 1 2 3 4 5 6 7; do evolve_3d ff "$seed"; done
@@ -53,8 +75,14 @@ case "${1:-}" in
         for seed in 0 1 2; do grow_regrow "$seed"; done
         python scripts/qd_comparison.py --root runs/paper/qd --seeds 0 1 2 --pop 100 --gens 300
         ;;
+    snapshot)
+        shopt -s nullglob
+        snapshot "" runs/paper/[23]d_*/seed_* runs/paper/grow_regrow_*/seed_*
+        snapshot /table1 runs/paper/table1/*/seed_*
+        snapshot /qd runs/paper/qd/*/seed_*
+        ;;
     *)
-        echo "usage: bash records/paper_queue.sh a|b" >&2
+        echo "usage: bash records/paper_queue.sh a|b|snapshot" >&2
         exit 2
         ;;
 esac
