@@ -361,7 +361,35 @@ def backends_section(measured: dict) -> list[str]:
             f"{r['simulation_cpu_s']:.1f} | {r['evals_per_s']:.2f} | "
             f"{'–' if efficiency is None else f'{efficiency:.2f}'} | "
             f"{'yes' if r['same_fitness_as_first_backend'] else 'no'} |")
-    return lines
+    return lines + ["", _backends_verdict(measured)]
+
+
+def _backends_verdict(measured: dict) -> str:
+    """What the rounds show about the parallel backends: each one's best round (the least
+    disturbed by other work) and who was faster round by round; a median is called a
+    difference only when one backend was faster in every round."""
+    rows = {r["backend"]: r for r in measured["rows"]}
+    serial = min(rows["serial"]["wall_s_rounds"]) if "serial" in rows else None
+    parallel = [r for r in measured["rows"] if r["workers"] > 1]
+    best = "; ".join(
+        f"{r['backend']} {min(r['wall_s_rounds']):.1f} s"
+        + (f" (efficiency {serial / (min(r['wall_s_rounds']) * r['workers']):.2f})"
+           if serial else "") for r in parallel)
+    text = (f"Best rounds, the least disturbed by other work: serial {serial:.1f} s; {best}."
+            if serial else f"Best rounds: {best}.")
+    if len(parallel) != 2:
+        return text
+    first, second = parallel
+    wins = sum(a < b for a, b in zip(first["wall_s_rounds"], second["wall_s_rounds"]))
+    rounds = len(first["wall_s_rounds"])
+    if wins in (0, rounds):
+        faster, slower = (first, second) if wins else (second, first)
+        return (f"{text} {faster['backend'].capitalize()} was faster than {slower['backend']} "
+                f"in every round ({rounds}).")
+    return (f"{text} Neither was faster in every round ({first['backend']} in {wins} of "
+            f"{rounds}): the difference of the medians is the other work's "
+            f"({measured['other_work_cores']:.2f} cores on average), not the backends'; a "
+            "difference needs a measurement on an idle machine.")
 
 
 def throughput_section(compared: dict, starts: dict | None) -> list[str]:

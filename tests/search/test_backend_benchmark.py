@@ -42,3 +42,17 @@ def test_the_machines_busy_time_holds_this_process_cpu_time():
         pass
     busy, own, wall = (after - start for after, start in zip(evolution._cpu_seconds(), before))
     assert own >= 0.5 and busy >= 0.9 * own and wall > 0
+
+
+def test_a_median_difference_is_claimed_only_when_one_backend_wins_every_round():
+    def measured(process, thread):
+        rows = [("serial", 1, [36.0, 35.0, 36.0]), ("process", 2, process), ("thread", 2, thread)]
+        return {"other_work_cores": 0.4,
+                "rows": [{"backend": b, "workers": w, "wall_s_rounds": rounds}
+                         for b, w, rounds in rows]}
+
+    mixed = evolution._backends_verdict(measured([28.8, 18.1, 36.3], [20.5, 18.8, 37.5]))
+    assert "process 18.1 s (efficiency 0.97)" in mixed and "thread 18.8 s" in mixed
+    assert "Neither was faster in every round (process in 2 of 3)" in mixed
+    clear = evolution._backends_verdict(measured([20.0, 21.0, 22.0], [19.0, 20.0, 21.0]))
+    assert "Thread was faster than process in every round (3)." in clear
