@@ -278,6 +278,25 @@ class Report:
         """The transfer measurement of `run`'s best robot in ``transfer.json``, if any."""
         return self.transfer.get(ex.robot_name(self.args.root, run))
 
+    def _engine_comparison(self, dim: int, ff: list[ex.RunInfo], lstm: list[ex.RunInfo]
+                           ) -> str | None:
+        """One sentence comparing the networks by what transfers: the paper engine's
+        distance of each finished run's best robot (``transfer.json``), by exact tests; None
+        unless every finished run of both networks has been measured there."""
+        from mjregen.search.compare import compare_groups
+
+        groups = [[self._measured(r) for r in runs if r.complete] for runs in (ff, lstm)]
+        if not all(groups) or any(m is None or m.get("engine") is None
+                                  for group in groups for m in group):
+            return None
+        comparison = compare_groups(*([m["engine"] for m in group] for group in groups))
+        verdict = ("a difference at the 5 % level" if comparison.p_mann_whitney < 0.05 else
+                   "no difference this n can show" if comparison.smallest_p >= 0.05 else
+                   "no difference at the 5 % level")
+        return (f"{dim}D, each finished run's best robot walked in the paper's engine (voxel "
+                f"lengths; what transfers, not the fitness an artefact can win): "
+                f"{comparison.sentence(('feed-forward', 'LSTM'))}: {verdict}.")
+
     def _transfer_count(self, runs: list[ex.RunInfo]) -> str:
         """How many finished runs' best robots transfer, of those measured in
         ``transfer.json`` (`benchmarks/transfer.py --each-run`)."""
@@ -441,6 +460,9 @@ class Report:
                 (ff, ff_out), (lstm, lstm_out) = (_finished_or_all(self.runs[n]) for n in names)
                 self.facts.append(_network_comparison(dim, ff, lstm,
                                                       left_out=len(ff_out) + len(lstm_out)))
+                engine = self._engine_comparison(dim, ff, lstm)
+                if engine:
+                    self.facts.append(engine)
 
     def _condition_row(self, name: str, runs: list[ex.RunInfo]) -> str:
         """A condition's row of the fitness table (its curve's statistics in `self.stats`)."""

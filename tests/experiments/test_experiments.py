@@ -552,3 +552,23 @@ def test_grow_regrow_runs_are_judged_beside_growth_only_runs_here_and_in_the_eng
             "grown robot's distance "
             "(what walking the regrown robot too costs): grow-regrow") in text
     assert "(n=1) vs growth-only" in text and "no difference this n can show" in text
+
+
+def test_the_networks_are_also_compared_by_their_robots_walks_in_the_engine(results, tmp_path):
+    root = tmp_path / "root"
+    shutil.copytree(results, root)
+    shutil.copytree(root / "3d_ff", root / "3d_lstm")
+    (root / "transfer.json").unlink(missing_ok=True)
+    out = tmp_path / "docs" / "results.md"
+    argv = ["--root", str(root), "--assets", str(tmp_path), "--out", str(out), "--no-render"]
+    assert results_report.main(argv) == 0
+    assert "walked in the paper's engine (voxel lengths" not in out.read_text()  # unmeasured
+    runs = ex.list_runs(root)
+    engine = {"3d_ff": [12.0, 14.0], "3d_lstm": [2.0, 4.0]}
+    (root / "transfer.json").write_text(json.dumps([
+        {"name": ex.robot_name(root, run), "engine": engine[condition][i], "transfers": False}
+        for condition in engine for i, run in enumerate(runs[condition])]))
+    assert results_report.main(argv) == 0
+    assert ("3D, each finished run's best robot walked in the paper's engine (voxel lengths; "
+            "what transfers, not the fitness an artefact can win): feed-forward 13 (n=2) vs "
+            "LSTM 3 (n=2): Mann-Whitney U = 4") in out.read_text()
