@@ -73,7 +73,8 @@ case "${1:-}" in
     b)
         for seed in 0 1 2 3 4 5 6; do evolve_3d lstm "$seed"; done
         for seed in 0 1 2; do grow_regrow "$seed"; done
-        python scripts/qd_comparison.py --root runs/paper/qd --seeds 0 1 2 --pop 100 --gens 300
+        python scripts/qd_comparison.py --root runs/paper/qd --seeds 0 1 2 --pop 100 --gens 300 \
+            --workers 1
         ;;
     snapshot)
         shopt -s nullglob
