@@ -278,6 +278,15 @@ class Report:
         """The transfer measurement of `run`'s best robot in ``transfer.json``, if any."""
         return self.transfer.get(ex.robot_name(self.args.root, run))
 
+    def _compare_networks(self, dim: int, names: list[str]) -> None:
+        """The facts comparing the feed-forward and LSTM runs of `names`: by fitness, and by
+        their best robots' walks in the paper's engine where every one was measured."""
+        (ff, ff_out), (lstm, lstm_out) = (_finished_or_all(self.runs[n]) for n in names)
+        self.facts.append(_network_comparison(dim, ff, lstm, left_out=len(ff_out) + len(lstm_out)))
+        engine = self._engine_comparison(dim, ff, lstm)
+        if engine:
+            self.facts.append(engine)
+
     def _engine_comparison(self, dim: int, ff: list[ex.RunInfo], lstm: list[ex.RunInfo]
                            ) -> str | None:
         """One sentence comparing the networks by what transfers: the paper engine's
@@ -457,12 +466,7 @@ class Report:
                 self.add(self._condition_row(name, runs))
             self.add("")
             if len(groups) == 2:
-                (ff, ff_out), (lstm, lstm_out) = (_finished_or_all(self.runs[n]) for n in names)
-                self.facts.append(_network_comparison(dim, ff, lstm,
-                                                      left_out=len(ff_out) + len(lstm_out)))
-                engine = self._engine_comparison(dim, ff, lstm)
-                if engine:
-                    self.facts.append(engine)
+                self._compare_networks(dim, names)
 
     def _condition_row(self, name: str, runs: list[ex.RunInfo]) -> str:
         """A condition's row of the fitness table (its curve's statistics in `self.stats`)."""
