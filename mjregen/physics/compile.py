@@ -25,7 +25,6 @@ from mjregen.physics.model import (
     engine_floor_constants,
     robot_bonds,
     robot_layout,
-    voxel_name,
 )
 from mjregen.physics.params import Physics, Scene
 from mjregen.physics.rounding import round_like_mjcf
@@ -142,8 +141,8 @@ def compile_robot(
     """
     physics = Physics() if physics is None else physics
     _check_request(robot, elevation, drive)
-    builder = builder_for(physics.pipeline)
     starts, start_seed = _checked_starts(starts, start_seed)
+    builder = builder_for(physics.pipeline)
     layout = robot_layout(robot, physics, {tuple(int(i) for i in c) for c in clamped},
                           elevation)
     bonds = robot_bonds(layout, physics)
@@ -240,8 +239,7 @@ def network_rule_rates(model: mujoco.MjModel, layout: RobotLayout, physics: Phys
     scene = physics.scene
     floor_k = floor_c = None
     if scene.floor:
-        voxel_bodies = np.array([model.body(voxel_name(index)).id
-                                 for index, _ in layout.voxels])
+        voxel_bodies = np.array([model.body(name).id for name in layout.names])
         stiffness, damping = engine_floor_constants(layout, physics)
         floor_k, floor_c = timestep.engine_floor_rates(
             model, voxel_bodies, dim=layout.dim, stiffness=stiffness, damping=damping,

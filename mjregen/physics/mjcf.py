@@ -32,7 +32,6 @@ from mjregen.physics.model import (
     engine_floor_constants,
     near_pairs,
     voxel_drag,
-    voxel_name,
 )
 from mjregen.physics.params import REST_WINDOW, Physics
 from mjregen.physics.pipelines import POINT_RADIUS
@@ -69,8 +68,8 @@ def voxel_bodies(layout: RobotLayout, physics: Physics) -> tuple[mujoco.MjSpec, 
         spec.worldbody.add_geom(name=FLOOR, type=mujoco.mjtGeom.mjGEOM_PLANE,
                                 size=[0.0, 0.0, L], contype=0, conaffinity=0)
     bodies = []
-    for i, ((index, material), centre) in enumerate(zip(layout.voxels, layout.centres)):
-        name = voxel_name(index)
+    for i, ((index, material), name, centre) in enumerate(zip(layout.voxels, layout.names,
+                                                              layout.centres)):
         body = spec.worldbody.add_body(name=name, pos=round_like_mjcf(centre))
         if index not in layout.clamped:
             _add_joints(body, layout.dim)
@@ -110,7 +109,7 @@ def plugin_config(layout: RobotLayout, physics: Physics, bonds: RobotBonds,
     beam = pipeline.bond_element == "beam"
     config = {
         "dim": str(layout.dim), "voxel_size": repr(L),
-        "voxels": " ".join(voxel_name(index) for index, _ in layout.voxels),
+        "voxels": " ".join(layout.names),
         "frequency": repr(scene.frequency), "start": repr(float(settle)),
         "waveform": scene.waveform, "drive": drive,
         "phase": _numbers([p.phase_sign for p in props]),

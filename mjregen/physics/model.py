@@ -117,6 +117,7 @@ class RobotLayout:
 
     dim: int
     voxels: list  # [(grid index tuple, Material)]
+    names: list  # [str]: each voxel's body name (`voxel_name`)
     index_of: dict  # grid index -> voxel number
     grid_index: np.ndarray  # (n, dim) int
     masses: np.ndarray  # (n,) kg
@@ -150,10 +151,11 @@ def robot_layout(robot: Robot, physics: Physics, clamped: set, elevation: float)
     bonds = _face_bonds(plus, dim)
     is_muscle = [physics.materials[m].is_muscle for _, m in voxels]
     bonds.sort(key=lambda bond: not (is_muscle[bond[0]] or is_muscle[bond[1]]))
-    return RobotLayout(dim=dim, voxels=voxels, index_of=index_of, grid_index=grid_index,
-                   masses=masses, centres=centres,
-                   surface=np.any((plus < 0) | (minus < 0), axis=1), bonds=bonds,
-                   clamped=clamped)
+    return RobotLayout(dim=dim, voxels=voxels, names=[voxel_name(index) for index, _ in voxels],
+                       index_of=index_of, grid_index=grid_index,
+                       masses=masses, centres=centres,
+                       surface=np.any((plus < 0) | (minus < 0), axis=1), bonds=bonds,
+                       clamped=clamped)
 
 
 def robot_bonds(layout: RobotLayout, physics: Physics) -> RobotBonds:
