@@ -735,7 +735,8 @@ class Report:
                  + " |")
         self.facts.append(
             f"Table 1, {row.robot} regrown by {net} NCAs from the {row.start} state "
-            f"(n = {len(row.runs)} runs): {similarity} of 729 cells; the regrown robot walks "
+            f"(n = {len(row.runs)} runs): {similarity} of {row.grid_cells} cells; the regrown "
+            "robot walks "
             f"{ours['regrown'][1]} of the original here and {engine['regrown'][1]} in the "
             "paper's engine"
             + (f" (the paper: {theirs['regrown_percent']:g} %, one run)." if theirs else "."))

@@ -102,6 +102,7 @@ class Table1Row:
 
     @property
     def grid_cells(self) -> int:
+        """Cells of the robot's grid (729 for the paper's 9 x 9 x 9)."""
         return int(self.runs[0].recovery["grid_cells"])
 
     def similarity(self) -> Spread:
