@@ -684,21 +684,24 @@ class Report:
         """Table 1 from the regrowth runs under <root>/table1 (`mjregen.experiments.table1`):
         each row's mean and range over its seeds, here and in the paper's engine."""
         from mjregen.experiments.table1 import (ENGINE_FILE, list_table1_runs,
-                                                read_engine_distances, table1_rows)
+                                                read_engine_distances, runs_under_way,
+                                                table1_rows)
 
         rows = table1_rows(list_table1_runs(self.args.root))
-        if not rows:
+        under_way = runs_under_way(self.args.root)
+        if not rows and not under_way:
             return
         measured = read_engine_distances(self.args.root)
         paper = {(r["robot"].lower(), r["network"]): r for r in paper_rows}
         self.add("**Table 1 at the paper's scale** (the regrowth runs under "
                  f"`{_rel(Path(self.args.root) / 'table1', ROOT)}`, one row per robot, regrowth "
-                 "network and start; mean (range) over the row's runs; the paper: its Table 1, "
-                 "one run of its best network per robot)", "",
-                 "| robot (regrowth network) | start | runs (GA) | similarity (of 729) / paper | "
-                 "original: ours / engine / paper | damaged, % of original: ours / engine / "
-                 "paper | regrown, % of original: ours | engine | paper |",
-                 "|---|---|---|---|---|---|---|---|---|")
+                 "network and start; mean (range) over the row's finished runs; the paper: its "
+                 "Table 1, one run of its best network per robot)", "")
+        if rows:
+            self.add("| robot (regrowth network) | start | runs (GA) | similarity (of 729) / "
+                     "paper | original: ours / engine / paper | damaged, % of original: ours / "
+                     "engine / paper | regrown, % of original: ours | engine | paper |",
+                     "|---|---|---|---|---|---|---|---|---|")
         for row in rows:
             theirs = paper.get((row.robot, "recurrent" if row.net == "lstm" else "feed forward"))
             self._table1_row(row, theirs, measured)
@@ -708,6 +711,10 @@ class Report:
                  "measured). Start: the CA state regrown from (\"saved\": the biped's as the "
                  "paper's code saved it; \"alpha 1\": the grid alone; \"grown\": the state an "
                  "NCA evolved to grow the robot from its seed grew, `--damage seed`).", "")
+        if under_way:
+            self.add("Under way, not counted: " + ", ".join(
+                f"{_rel(run.folder, Path(self.args.root))} (generation {run.generations} of "
+                f"{run.planned})" for run in under_way) + ".", "")
 
     def _table1_row(self, row, theirs: dict | None, measured: dict) -> None:
         """One row of `table1_runs` and its fact; `theirs`: the paper's row for the robot and

@@ -56,8 +56,10 @@ class Table1Run:
       net: the regrowth network, "ff" or "lstm".
       start: how the CA state regrown from was made ("saved", "alpha 1", "grown").
       seed: the GA's seed.
-      population, generations: the GA's population and the generations it ran.
-      recovery: its recovery.json (similarity, distances in voxel lengths, percentages).
+      population, generations, planned: the GA's population, the generations it ran and
+        the generations it was started for.
+      recovery: its recovery.json (similarity, distances in voxel lengths, percentages);
+        None while it is under way.
     """
 
     folder: Path
@@ -67,27 +69,43 @@ class Table1Run:
     seed: int
     population: int
     generations: int
-    recovery: dict
+    planned: int
+    recovery: dict | None
 
 
 def list_table1_runs(root: str | Path) -> list[Table1Run]:
     """Every finished run under ``root/table1`` that regrows the paper's cut, in folder order."""
+    return [run for run in _paper_cut_runs(root) if run.recovery is not None]
+
+
+def runs_under_way(root: str | Path) -> list[Table1Run]:
+    """The runs under ``root/table1`` that regrow the paper's cut and have not finished (no
+    recovery.json yet; their `recovery` is None), in folder order."""
+    return [run for run in _paper_cut_runs(root) if run.recovery is None]
+
+
+def _paper_cut_runs(root: str | Path) -> list[Table1Run]:
     runs = []
     for folder in sorted(Path(root, FOLDER).glob("*/seed_*")):
-        if not (folder / "recovery.json").is_file():
+        if not (folder / "config.json").is_file():
             continue
         config = json.loads((folder / "config.json").read_text())
         task = config["task"]
         if task.get("damage") != PAPER_CUT:
             continue
-        with (folder / "metrics.csv").open() as metrics:
-            generations = sum(1 for _ in metrics) - 1
+        generations = 0
+        if (folder / "metrics.csv").is_file():
+            with (folder / "metrics.csv").open() as metrics:
+                generations = max(sum(1 for _ in metrics) - 1, 0)
+        recovery = folder / "recovery.json"
         runs.append(Table1Run(folder=folder, robot=folder.parent.name.split("_")[0],
                               net=task["nca"]["kind"], start=task.get("start", "?"),
                               seed=int(config["seed"]),
                               population=int(config["ga"]["population"]),
                               generations=generations,
-                              recovery=json.loads((folder / "recovery.json").read_text())))
+                              planned=int(config["ga"]["generations"]),
+                              recovery=json.loads(recovery.read_text())
+                              if recovery.is_file() else None))
     return runs
 
 

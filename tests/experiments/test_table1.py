@@ -15,6 +15,7 @@ from mjregen.experiments.table1 import (
     list_table1_runs,
     measure_in_engine,
     read_engine_distances,
+    runs_under_way,
     table1_rows,
 )
 from mjregen.grid import Material
@@ -85,6 +86,8 @@ def test_rows_group_finished_runs_by_robot_network_and_start(root):
     assert biped.percent("regrown") == Spread(75.0, 60.0, 90.0, 3)
     assert biped.percent("damaged") == Spread(50.0, 50.0, 50.0, 3)
     assert biped.runs[0].generations == 2 and biped.runs[0].population == 8
+    assert [(r.folder.parent.name, r.seed, r.generations, r.planned)
+            for r in runs_under_way(root)] == [("biped_ff", 3, 2, 2)]
 
 
 def test_the_engine_walks_each_grid_once_and_its_distances_are_kept(root):
@@ -136,3 +139,4 @@ def test_the_report_shows_each_rows_spread_beside_the_papers_table(root, tmp_pat
     assert "Table 1, biped regrown by feed-forward NCAs from the saved state (n = 3 runs)" in text
     lstm = next(line for line in text.splitlines() if line.startswith("| Biped (LSTM) | saved"))
     assert "| 40 / – | 50 % / – | 30, 75 % | –, – | – |" in lstm  # no engine walk, no paper row
+    assert "Under way, not counted: table1/biped_ff/seed_3 (generation 2 of 2)." in text
