@@ -13,8 +13,9 @@ name it. Each robot is walked in mjregen
   - with its grid rotated by 90, 180 and 270 degrees about z (start 0 each; 2D: mirrored),
   - from the exact start (start shift 0: every voxel on its grid position, what every
     evolution scored before the start shift),
-  - from start 0 with half the physics' time step (a walk that the integration makes
-    changes with the step),
+  - from the same ``--starts`` starts with half the physics' time step (a walk that the
+    integration makes changes with the step; the same starts, so that the spread between
+    starts is not taken for it),
 and in the paper's engine for the same settle and walk (3D grids: a 2D run's robots are
 sheets, 3D grids, walked for the 2D times; a 2D grid in the x-z plane is not run there), by
 `mjregen.validation.transfer.measure_transfer`. ``--settle`` and ``--duration`` set the times of
@@ -81,14 +82,14 @@ def markdown(rows: list[Transfer], starts: int) -> str:
     """The table of docs/transfer.md."""
     lines = [f"| robot | voxels | mirror plane | distance: {starts} starts, mean (min-max) | "
              f"{starts} fresh starts | kept | rotated 90/180/270 | kept | exact start | "
-             f"step × {FINER_STEP:g} | kept | paper's engine | engine / distance | transfers |",
+             f"step × {FINER_STEP:g}, the same starts | kept | paper's engine | engine / distance | transfers |",
              "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         lines.append(
             f"| {r.name} | {r.voxels} | {', '.join(r.mirror_axes) or 'none'} | "
             f"{_spread(r.starts)} | {_spread(r.fresh)} | {r.fresh_kept:.0%} | "
             f"{' / '.join(f'{d:.2f}' for d in r.rotated)} | {r.rotated_kept:.0%} | "
-            f"{r.exact:.2f} | {r.finer_step:.2f} | {r.finer_step_kept:.0%} | "
+            f"{r.exact:.2f} | {_spread(r.finer_step)} | {r.finer_step_kept:.0%} | "
             f"{_cell(r.engine)} | {_cell(r.engine_ratio)} | "
             f"{'yes' if r.transfers else 'no'} |")
     return "\n".join(lines)

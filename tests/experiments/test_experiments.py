@@ -328,7 +328,7 @@ def test_ship_assets_with_the_engine_ships_the_farthest_robot_that_transfers(
     def walks(seed: int, distance: float, engine: float) -> Transfer:
         return Transfer(name=f"seed {seed}", voxels=1, mirror_axes=[], starts=[distance] * 2,
                         fresh=[distance] * 2, rotated=[distance] * 3, exact=distance,
-                        finer_step=distance, engine=engine)
+                        finer_step=[distance] * 2, engine=engine)
 
     measured = {}  # robot file -> its walks: seed 0 walks farther but not in the engine
 

@@ -91,10 +91,10 @@ def test_turned_copies_are_the_same_robot_turned_about_z():
 
 def test_the_rule_needs_fresh_starts_turns_a_finer_step_and_the_engine():
     walks = dict(name="r", voxels=1, mirror_axes=[], starts=[10.0, 10.0], fresh=[9.0, 9.0],
-                 rotated=[9.0, 9.0, 9.0], exact=10.0, finer_step=9.0, engine=8.0)
+                 rotated=[9.0, 9.0, 9.0], exact=10.0, finer_step=[9.0, 9.0], engine=8.0)
     assert Transfer(**walks).transfers  # exactly at the thresholds
     assert (KEEP, ENGINE, FINER_STEP) == (0.9, 0.8, 0.5)
-    for change in ({"fresh": [8.9, 9.0]}, {"rotated": [9.0, 9.0, 8.9]}, {"finer_step": 8.9},
+    for change in ({"fresh": [8.9, 9.0]}, {"rotated": [9.0, 9.0, 8.9]}, {"finer_step": [8.9, 9.0]},
                    {"engine": 7.9}, {"engine": None}):
         assert not Transfer(**{**walks, **change}).transfers, change
 
@@ -107,9 +107,10 @@ def test_measure_transfer_walks_every_way_and_asks_the_engine(tmp_path):
                                                               starts=range(2))]
     assert row.rotated == [simulate(r).distance for r in rotations(TRIPOD)]
     safety = Physics().scene.timestep_safety
-    finer = simulate(TRIPOD, physics=Physics().replace(timestep_safety=safety * FINER_STEP))
-    assert finer.steps == pytest.approx(2 * simulate(TRIPOD).steps, abs=2)  # half the step
-    assert row.finer_step == finer.distance
+    finer = simulate_starts(TRIPOD, physics=Physics().replace(
+        timestep_safety=safety * FINER_STEP), starts=range(2))  # the same starts
+    assert finer[1].steps == pytest.approx(2 * simulate(TRIPOD, start=1).steps, abs=2)
+    assert row.finer_step == [r.distance for r in finer]
     assert row.engine == 36.5 and row.engine_ratio == pytest.approx(36.5 / row.distance)
     # the tripod's gait is its own, not an artefact: it keeps its walk every way
     assert row.fresh_kept > KEEP and row.rotated_kept > KEEP and row.finer_step_kept > KEEP
