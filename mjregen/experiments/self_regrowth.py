@@ -18,7 +18,7 @@ from mjregen.experiments.paper import RunInfo, read_run
 from mjregen.experiments.recovery import ROLES, RecoveryReport, measure_recovery
 from mjregen.grid import Robot
 from mjregen.growth.checkpoint import load_nca
-from mjregen.growth.nca import NCA
+from mjregen.growth.nca import NCA, Growth
 from mjregen.physics import Physics
 from mjregen.tasks.grow_regrow import (
     PAPER_CUT,
@@ -70,14 +70,14 @@ def self_regrowth_report(nca: NCA, *, physics: Physics | None = None,
                                                            cut), growth.grids)[0])
                   for cut in [PAPER_CUT, *cuts]}
     return SelfRegrowthReport(cells=int(growth.grids[0].size), similarity=similarity,
-                              recovery=measure_recovery(self_regrowth_robots(nca),
+                              recovery=measure_recovery(self_regrowth_robots(nca, growth),
                                                         physics=physics, duration=duration))
 
 
-def self_regrowth_robots(nca: NCA) -> dict[str, Robot]:
+def self_regrowth_robots(nca: NCA, growth: Growth | None = None) -> dict[str, Robot]:
     """`nca`'s grown robot ("original"), the paper's cut of it ("damaged") and what the same
-    NCA regrows from that cut ("regrown")."""
-    growth = nca.grow()
+    NCA regrows from that cut ("regrown"); `growth`: `nca.grow()` where the caller has it."""
+    growth = nca.grow() if growth is None else growth
     regrown = regrow_after_cut(nca.config, nca.genome[None], growth, PAPER_CUT)
     return {"original": growth.robot(),
             "damaged": damaged_robot(damaged_states(nca.config, growth, PAPER_CUT)),
