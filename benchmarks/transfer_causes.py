@@ -1,20 +1,28 @@
 """Why a robot does not transfer: its walk in mjregen and in the paper's engine at finer time
 steps and without self-collision, side by side.
 
-    python benchmarks/transfer_causes.py --voxelyze DIR ROBOT.npy [...] [--starts 5]
-        [--json out.json]
+    python benchmarks/transfer_causes.py --voxelyze DIR ROBOT.npy|NAME=ROBOT.npy ...
+        [--starts 5] [--steps 1 0.5 0.25] [--contacts] [--json out.json]
 
-For each 3D robot (a .npy grid, or NAME=PATH), with the paper's 3D times (0.05 s settle, 0.5 s
-measured), distances in voxel lengths:
-  - mjregen, the mean over starts 0 .. ``--starts`` - 1 of seed 0, at the default time step
-    and at 1/2 and 1/4 of it (`Scene.timestep_safety`), with self-collision and without it
-    (`collision_radius` 0);
-  - the paper's engine, one run each, at its step fractions 0.9 (the paper's), 0.45 and
-    0.225, with its self-collision and without it (``SelfColEnabled`` 0).
+For each 3D robot, with the paper's 3D times (0.05 s settle, 0.5 s measured), distances in
+voxel lengths:
+  - mjregen, the mean over starts 0 .. ``--starts`` - 1 of seed 0 (1: the default start), at
+    each ``--steps`` factor of the default time step (`Scene.timestep_safety`), with
+    self-collision and without it (`collision_radius` 0);
+  - the paper's engine, one run each, at the same factors of its step fraction 0.9 (the
+    paper's), with its self-collision and without it (``SelfColEnabled`` 0);
+  - at the default step (factor 1, when listed), the engine / mjregen ratios with and without
+    self-collision.
 A walk that changes with the step in one simulator is an integration artefact there; one that
 two simulators agree on without self-collision but not with it depends on how each computes
 self-collision. The default step and the engine's 0.9 with self-collision are what the
 transfer check compares (`mjregen.validation.transfer`).
+
+``--contacts`` also follows mjregen's walk from the default start (every 2nd step) and counts
+the samples of pairs touching (centres closer than 1.5 L) that the engine's collision
+candidates would not hold: the engine lists the surface pairs more than 3 bonds apart within
+2 L of each other, and lists them again only once its fastest voxel has moved 0.5 L (its
+horizon 2, halved less one half).
 """
 
 from __future__ import annotations
@@ -22,48 +30,125 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from collections import deque
 from pathlib import Path
 
+import mujoco
 import numpy as np
 
+from mjregen.errors import MjregenError
 from mjregen.grid import Robot
 from mjregen.physics import PAPER_TIMES, Physics
-from mjregen.physics.simulation import simulate_starts
+from mjregen.physics.compile import compile_robot
+from mjregen.physics.model import RobotLayout, robot_layout
+from mjregen.physics.simulation import simulate_starts, simulation_of
 from mjregen.validation.engine import PAPER_DT_FRACTION, PaperEngine
 
-STEP_FACTORS = (1.0, 0.5, 0.25)  # of mjregen's default time step
-DT_FRACTIONS = (PAPER_DT_FRACTION, 0.45, 0.225)  # of the engine's own stability rule
+NO_COLLISION = " no-col"  # the suffix of a column walked without self-collision
 
 
-def mjregen_walks(robot: Robot, starts: int) -> dict[str, float]:
+def _column(factor: float, collision: bool) -> str:
+    return f"{factor:g}" + ("" if collision else NO_COLLISION)
+
+
+def mjregen_walks(robot: Robot, starts: int, factors: list[float]) -> dict[str, float]:
     """{"<factor>" / "<factor> no-col": mean distance over the starts} (NaN if any start is
     unstable)."""
     base = Physics()
     out = {}
     for collision in (True, False):
-        for factor in STEP_FACTORS:
+        for factor in factors:
             physics = base.replace(timestep_safety=factor * base.scene.timestep_safety,
                                    **({} if collision else {"collision_radius": 0.0}))
             walks = simulate_starts(robot, physics=physics, starts=range(starts))
-            out[f"{factor:g}" + ("" if collision else " no-col")] = (
+            out[_column(factor, collision)] = (
                 float(np.mean([w.distance for w in walks]))
                 if all(w.stable for w in walks) else float("nan"))
     return out
 
 
-def engine_walks(robot: Robot, engine: PaperEngine) -> dict[str, float]:
-    """{"<fraction>" / "<fraction> no-col": the engine's distance}."""
+def engine_walks(robot: Robot, engine: PaperEngine, factors: list[float]) -> dict[str, float]:
+    """{"<fraction>" / "<fraction> no-col": the engine's distance} at each factor of the
+    paper's step fraction."""
     settle, measured = PAPER_TIMES[3]
-    return {f"{fraction:g}" + ("" if collision else " no-col"): engine.run_window(
-                robot.grid, dt_fraction=fraction, stop=settle + measured, measure_from=settle,
-                settings={"SelfColEnabled": int(collision)})["distance"]
-            for collision in (True, False) for fraction in DT_FRACTIONS}
+    return {_column(factor * PAPER_DT_FRACTION, collision): engine.run_window(
+                robot.grid, dt_fraction=factor * PAPER_DT_FRACTION, stop=settle + measured,
+                measure_from=settle, settings={"SelfColEnabled": int(collision)})["distance"]
+            for collision in (True, False) for factor in factors}
+
+
+def collision_pairs(layout: RobotLayout, hops: int = 3) -> np.ndarray:
+    """The pairs (k, 2) of the robot's surface voxels (`RobotLayout.surface`, in body order)
+    more than `hops` face bonds apart: those that may collide, in both simulators."""
+    neighbours: list[list[int]] = [[] for _ in layout.voxels]
+    for i, j, _ in layout.bonds:
+        neighbours[i].append(j)
+        neighbours[j].append(i)
+
+    def within(start: int) -> set[int]:
+        depth, queue = {start: 0}, deque([start])
+        while queue:
+            u = queue.popleft()
+            for v in neighbours[u] if depth[u] < hops else ():
+                if v not in depth:
+                    depth[v] = depth[u] + 1
+                    queue.append(v)
+        return set(depth)
+
+    surface = np.flatnonzero(layout.surface).tolist()
+    near = {i: within(i) for i in surface}
+    pairs = [(a, b) for k, a in enumerate(surface) for b in surface[k + 1:] if b not in near[a]]
+    return np.array(pairs, dtype=int).reshape(-1, 2)
+
+
+def missed_contacts(robot: Robot, every: int = 2) -> tuple[int, int]:
+    """(samples of touching pairs in mjregen's walk, of them outside the engine's candidates)."""
+    compiled = compile_robot(robot)
+    pairs = collision_pairs(robot_layout(robot, compiled.physics, set(), 0.0))
+    sim = simulation_of(compiled)
+    model, data, bodies = sim.model, sim.data, compiled.body_ids
+    size = compiled.physics.scene.voxel_size
+    steps = round(sum(compiled.physics.scene.timing(3)) / compiled.timestep)
+    previous, moved, candidates, touching, missed = None, np.inf, None, 0, 0
+    for _ in range(0, steps, every):
+        sim.run(every)
+        mujoco.mj_kinematics(model, data)
+        x = data.xpos[bodies] / size
+        moved += 0.0 if previous is None else float(np.max(np.linalg.norm(x - previous, axis=1)))
+        previous = x.copy()
+        distance = np.linalg.norm(x[pairs[:, 0]] - x[pairs[:, 1]], axis=1)
+        if moved > 0.5:
+            candidates, moved = distance < 2.0, 0.0
+        touching += int(np.count_nonzero(distance < 1.5))
+        missed += int(np.count_nonzero((distance < 1.5) & ~candidates))
+    return touching, missed
+
+
+def _ratios(row: dict) -> dict[str, float] | None:
+    """Engine / mjregen at the default step, with and without self-collision (None when the
+    default step was not walked)."""
+    mine, theirs = row["mjregen"], row["engine"]
+    default = _column(PAPER_DT_FRACTION, True)
+    if "1" not in mine or default not in theirs:
+        return None
+    return {"with": _ratio(theirs[default], mine["1"]),
+            NO_COLLISION.strip(): _ratio(theirs[default + NO_COLLISION], mine["1" + NO_COLLISION])}
+
+
+def _ratio(engine: float, mine: float) -> float:
+    return engine / mine if mine != 0.0 else float("nan")
 
 
 def markdown(rows: list[dict]) -> str:
-    """The two tables, mjregen's and the engine's, one row per robot."""
+    """mjregen's table, the engine's and, with the default step, their ratios: a row per
+    robot."""
+    tables = [("mjregen", "mjregen, step ×"), ("engine", "engine, DtFrac")]
+    if all(_ratios(r) is not None for r in rows):
+        for row in rows:
+            row["ratio"] = _ratios(row)
+        tables.append(("ratio", "engine / mjregen"))
     lines = []
-    for simulator, label in (("mjregen", "mjregen, step ×"), ("engine", "engine, DtFrac")):
+    for simulator, label in tables:
         keys = list(rows[0][simulator])
         lines += ["", f"| robot | voxels | {' | '.join(f'{label} {k}' for k in keys)} |",
                   "|---|---|" + "---|" * len(keys)]
@@ -78,19 +163,29 @@ def main(argv: list[str] | None = None) -> int:
                         help="folder of the paper's engine and its vxa.py")
     parser.add_argument("robots", nargs="+", help="3D robot files (.npy) or NAME=PATH")
     parser.add_argument("--starts", type=int, default=5, help="mjregen starts per cell")
+    parser.add_argument("--steps", type=float, nargs="+", default=[1.0, 0.5, 0.25],
+                        help="factors of both simulators' default time step")
+    parser.add_argument("--contacts", action="store_true",
+                        help="also count mjregen's contacts outside the engine's candidates")
     parser.add_argument("--json", type=Path, help="write the measurements here")
     args = parser.parse_args(argv)
-    engine = PaperEngine(args.voxelyze)
-    rows = []
-    for item in args.robots:
-        name, _, path = item.rpartition("=")
-        robot = Robot.load(path)
-        if robot.dim != 3:
-            parser.error(f"{path}: the engine runs 3D robots only")
-        rows.append({"name": name or Path(path).stem, "voxels": robot.n_voxels,
-                     "mjregen": mjregen_walks(robot, args.starts),
-                     "engine": engine_walks(robot, engine)})
-        print(rows[-1], flush=True)
+    if args.starts < 1 or not all(0.0 < f <= 1.0 for f in args.steps):
+        parser.error("--starts must be >= 1 and each --steps factor in (0, 1]")
+    try:
+        engine = PaperEngine(args.voxelyze)
+        rows = []
+        for name, _, path in (item.rpartition("=") for item in args.robots):
+            robot = Robot.load(path)
+            if robot.dim != 3:
+                parser.error(f"{path}: a {robot.dim}D robot; the engine runs 3D grids")
+            rows.append({"name": name or Path(path).stem, "voxels": robot.n_voxels,
+                         "mjregen": mjregen_walks(robot, args.starts, args.steps),
+                         "engine": engine_walks(robot, engine, args.steps)})
+            if args.contacts:
+                rows[-1]["touching"], rows[-1]["missed"] = missed_contacts(robot)
+            print(rows[-1], flush=True)
+    except (MjregenError, OSError, ValueError) as error:
+        parser.error(str(error))
     print(markdown(rows))
     if args.json is not None:
         args.json.write_text(json.dumps(rows, indent=1))
