@@ -18,6 +18,7 @@ from mjregen.experiments.paper import RunInfo, read_run
 from mjregen.experiments.recovery import ROLES, RecoveryReport, measure_recovery
 from mjregen.grid import Robot
 from mjregen.growth.checkpoint import load_nca
+from mjregen.growth.config import NCAConfig
 from mjregen.growth.nca import NCA, Growth
 from mjregen.physics import Physics
 from mjregen.tasks.grow_regrow import (
@@ -66,21 +67,28 @@ def self_regrowth_report(nca: NCA, *, physics: Physics | None = None,
     config = nca.config
     cuts = random_cuts(8, dim=config.dim, grid_size=config.grid_size) if cuts is None else cuts
     growth = nca.grow()
-    similarity = {cut: int(own_similarity(regrow_after_cut(config, nca.genome[None], growth,
-                                                           cut), growth.grids)[0])
-                  for cut in [PAPER_CUT, *cuts]}
+    regrown = {cut: regrow_after_cut(config, nca.genome[None], growth, cut)
+               for cut in [PAPER_CUT, *cuts]}
+    similarity = {cut: int(own_similarity(grids, growth.grids)[0]) for cut, grids in regrown.items()}
+    robots = _paper_cut_robots(config, growth, regrown[PAPER_CUT])
     return SelfRegrowthReport(cells=int(growth.grids[0].size), similarity=similarity,
-                              recovery=measure_recovery(self_regrowth_robots(nca, growth),
-                                                        physics=physics, duration=duration))
+                              recovery=measure_recovery(robots, physics=physics, duration=duration))
 
 
 def self_regrowth_robots(nca: NCA, growth: Growth | None = None) -> dict[str, Robot]:
     """`nca`'s grown robot ("original"), the paper's cut of it ("damaged") and what the same
     NCA regrows from that cut ("regrown"); `growth`: `nca.grow()` where the caller has it."""
     growth = nca.grow() if growth is None else growth
-    regrown = regrow_after_cut(nca.config, nca.genome[None], growth, PAPER_CUT)
+    return _paper_cut_robots(nca.config, growth,
+                             regrow_after_cut(nca.config, nca.genome[None], growth, PAPER_CUT))
+
+
+def _paper_cut_robots(config: NCAConfig, growth: Growth, regrown: np.ndarray
+                      ) -> dict[str, Robot]:
+    """The original, damaged and regrown robots of the paper's cut, given the regrown grids
+    ``(1, *grid)``."""
     return {"original": growth.robot(),
-            "damaged": damaged_robot(damaged_states(nca.config, growth, PAPER_CUT)),
+            "damaged": damaged_robot(damaged_states(config, growth, PAPER_CUT)),
             "regrown": Robot(regrown[0])}
 
 
