@@ -13,7 +13,7 @@ Reads the evolution runs under --root (runs/results/<condition>/seed_<n>), the r
   best_3d_walker.mp4               the best robot of all 3D runs walking, in slow motion
   results.md                       settings vs the paper, curves, tables, the regrowth table
                                    beside the paper's Table 1, the GA against MAP-Elites
-                                   (docs/quality_diversity.md, included), measured facts for
+                                   (results/quality_diversity.md, included), measured facts for
                                    discussion
 
 Each condition's best robot walked in the paper's engine, and how many finished runs end on
@@ -941,13 +941,22 @@ class Report:
         self.add("")
 
     def quality_diversity(self) -> None:
-        """docs/quality_diversity.md (`scripts/qd_comparison.py --report`), one level down."""
-        path = self.doc_dir / "quality_diversity.md"
+        """The GA against MAP-Elites on this root's runs: the page `scripts/qd_comparison.py
+        --report --docs FIGURES` wrote into this report's figures folder
+        (FIGURES/quality_diversity.md), its headings one level down and its figures' links
+        made relative to this page."""
+        path = self.figures / "quality_diversity.md"
         if not path.is_file():
+            root, figures = _rel(Path(self.args.root), ROOT), _rel(self.figures, ROOT)
             self.add("## Quality diversity: GA against MAP-Elites", "",
-                     "Not run (`python scripts/qd_comparison.py`, then `--report`).", "")
+                     f"Not run on `{root}` (`python scripts/qd_comparison.py --root {root}/qd "
+                     "--seeds 0 1 2 --pop 100 --gens 300 --workers 1`, the paper's 30,000 "
+                     f"evaluations per run; then the same with `--report --docs {figures}`).",
+                     "")
             return
-        body = path.read_text().strip().splitlines()
+        folder = _rel(self.figures, self.doc_dir)
+        body = [line.replace("](quality_diversity/", f"]({folder}/quality_diversity/")
+                for line in path.read_text().strip().splitlines()]
         self.add("## " + body[0].lstrip("# "), "", *("#" + line if line.startswith("#") else line
                                                      for line in body[1:]), "")
 

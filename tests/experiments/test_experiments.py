@@ -510,6 +510,23 @@ def test_results_report_on_nothing_says_not_run(tmp_path):
     assert text.count("not run") >= 4 and "No evolved NCA is shipped yet" in text
 
 
+def test_the_quality_diversity_section_is_the_page_in_the_reports_own_figures_folder(tmp_path):
+    out, root = tmp_path / "docs" / "page.md", tmp_path / "none"
+    argv = ["--root", str(root), "--assets", str(tmp_path), "--out", str(out), "--no-render"]
+    (tmp_path / "docs").mkdir()
+    (tmp_path / "docs" / "quality_diversity.md").write_text("# Another page's comparison\n")
+    assert results_report.main(argv) == 0
+    text = out.read_text()
+    assert "Another page's comparison" not in text  # a page beside it belongs to no report
+    assert f"Not run on `{root}`" in text and f"--root {root}/qd" in text
+    (tmp_path / "docs" / "page" / "quality_diversity.md").write_text(
+        "# Quality diversity: a test\n\n## Runs\n\n![curves](quality_diversity/curves.png)\n")
+    assert results_report.main(argv) == 0
+    text = out.read_text()
+    assert "## Quality diversity: a test" in text and "### Runs" in text
+    assert "![curves](page/quality_diversity/curves.png)" in text  # relative to the report
+
+
 def test_grow_regrow_runs_are_judged_beside_growth_only_runs_here_and_in_the_engine(
         results, tmp_path):
     from mjregen.experiments import self_regrowth
