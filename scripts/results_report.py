@@ -534,13 +534,15 @@ class Report:
             self.add("Not shipped yet (`python scripts/ship_assets.py --walkers`).", "")
             return []
         data = json.loads(index.read_text())
-        self.add(data.get("diversity", ""), "",
+        self.add(f"The shipped walkers (`{_rel(index, ROOT)}`), whatever root this page reports; "
+                 "their source is the run each came from. " + data.get("diversity", ""), "",
                  "| walker | source | fitness | distance | voxels | soft/hard/+/− | feet | l × w × h |",
                  "|---|---|---|---|---|---|---|---|")
         drawn = []
         for w in data["walkers"]:
             f, m = w["features"], w["materials"]
-            self.add(f"| {w['name']} | {w['condition']} seed {w['seed']} gen {w['generation']} | "
+            source = w.get("run") or f"{w['condition']} seed {w['seed']}"
+            self.add(f"| {w['name']} | {source} gen {w['generation']} | "
                      f"{w['fitness']:.4g} | {fmt_distance(w['distance'], 4)} | {w['voxels']} | "
                      f"{m['soft']}/{m['hard']}/{m['muscle_plus']}/{m['muscle_minus']} | "
                      f"{f['feet']:.0f} | {f['length']:.0f} × {f['width']:.0f} × {f['height']:.0f} |")
