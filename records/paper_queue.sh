@@ -5,7 +5,10 @@
 # Every command resumes its run folder where one exists; a finished run returns at once, so
 # both lines can be started again after any interruption. A failing command stops its line.
 #   bash records/paper_queue.sh snapshot
-# keeps every run of runs/paper with a generation done in records/paper (scripts/snapshot_runs.py).
+# keeps every run of runs/paper with a generation done in records/paper (scripts/snapshot_runs.py);
+#   bash records/paper_queue.sh report ENGINE
+# walks the records' new robots in the paper's engine (ENGINE: its folder, benchmarks/transfer.py
+# --voxelyze) and regenerates docs/results.md from the records.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 resume() { if [ -f "$1/config.json" ]; then echo --resume; fi; }
@@ -82,8 +85,14 @@ case "${1:-}" in
         snapshot /table1 runs/paper/table1/*/seed_*
         snapshot /qd runs/paper/qd/*/seed_*
         ;;
+    report)  # ENGINE: the paper engine's walks of the records' robots, then docs/results.md
+        engine=${2:?usage: bash records/paper_queue.sh report ENGINE_FOLDER}
+        python benchmarks/transfer.py --voxelyze "$engine" --each-run records/paper \
+            --grow-regrow records/paper --table1 records/paper --json records/paper/transfer.json
+        python scripts/results_report.py --root records/paper
+        ;;
     *)
-        echo "usage: bash records/paper_queue.sh a|b|snapshot" >&2
+        echo "usage: bash records/paper_queue.sh a|b|snapshot|report ENGINE" >&2
         exit 2
         ;;
 esac
