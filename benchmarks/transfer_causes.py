@@ -2,7 +2,7 @@
 steps and without self-collision, side by side.
 
     python benchmarks/transfer_causes.py --voxelyze DIR ROBOT.npy|NAME=ROBOT.npy ...
-        [--starts 5] [--steps 1 0.5 0.25] [--contacts] [--json out.json]
+        [--starts 5] [--steps 1 0.5 0.25] [--horizons 2 2.5] [--json out.json]
 
 For each 3D robot, with the paper's 3D times (0.05 s settle, 0.5 s measured), distances in
 voxel lengths:
@@ -18,11 +18,15 @@ two simulators agree on without self-collision but not with it depends on how ea
 self-collision. The default step and the engine's 0.9 with self-collision are what the
 transfer check compares (`mjregen.validation.transfer`).
 
-``--contacts`` also follows mjregen's walk from the default start (every 2nd step) and counts
-the samples of pairs touching (centres closer than 1.5 L) that the engine's collision
-candidates would not hold: the engine lists the surface pairs more than 3 bonds apart within
-2 L of each other, and lists them again only once its fastest voxel has moved 0.5 L (its
-horizon 2, halved less one half).
+``--horizons H ...`` also walks each robot in the engine at its paper step with its
+self-collision and ``CollisionHorizon`` H (the paper's: 2). The engine lists its candidate
+pairs (surface voxels more than int(1.5 H) bonds apart, 3 for H in [2, 2.67)) within H times
+the first voxel's current size of each other (`CVX_Sim::CalcL1Bonds`) and lists them again
+once the fastest voxel's speed times the step, summed over the steps since, exceeds
+(H - 1) / 2 L (`UpdateCollisions`); a pair that closes faster is missed until then. A larger H
+(keeping 3 bonds) misses fewer: a walk that changes with H depended on contacts the paper's
+list missed.
+mjregen's list never misses one (`plugin/forces.c`, `self_collision`).
 """
 
 from __future__ import annotations
@@ -30,18 +34,14 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from collections import deque
 from pathlib import Path
 
-import mujoco
 import numpy as np
 
 from mjregen.errors import MjregenError
 from mjregen.grid import Robot
 from mjregen.physics import PAPER_TIMES, Physics
-from mjregen.physics.compile import compile_robot
-from mjregen.physics.model import RobotLayout, robot_layout
-from mjregen.physics.simulation import simulate_starts, simulation_of
+from mjregen.physics.simulation import simulate_starts
 from mjregen.validation.engine import PAPER_DT_FRACTION, PaperEngine
 
 NO_COLLISION = " no-col"  # the suffix of a column walked without self-collision
@@ -77,51 +77,14 @@ def engine_walks(robot: Robot, engine: PaperEngine, factors: list[float]) -> dic
             for collision in (True, False) for factor in factors}
 
 
-def collision_pairs(layout: RobotLayout, hops: int = 3) -> np.ndarray:
-    """The pairs (k, 2) of the robot's surface voxels (`RobotLayout.surface`, in body order)
-    more than `hops` face bonds apart: those that may collide, in both simulators."""
-    neighbours: list[list[int]] = [[] for _ in layout.voxels]
-    for i, j, _ in layout.bonds:
-        neighbours[i].append(j)
-        neighbours[j].append(i)
-
-    def within(start: int) -> set[int]:
-        depth, queue = {start: 0}, deque([start])
-        while queue:
-            u = queue.popleft()
-            for v in neighbours[u] if depth[u] < hops else ():
-                if v not in depth:
-                    depth[v] = depth[u] + 1
-                    queue.append(v)
-        return set(depth)
-
-    surface = np.flatnonzero(layout.surface).tolist()
-    near = {i: within(i) for i in surface}
-    pairs = [(a, b) for k, a in enumerate(surface) for b in surface[k + 1:] if b not in near[a]]
-    return np.array(pairs, dtype=int).reshape(-1, 2)
-
-
-def missed_contacts(robot: Robot, every: int = 2) -> tuple[int, int]:
-    """(samples of touching pairs in mjregen's walk, of them outside the engine's candidates)."""
-    compiled = compile_robot(robot)
-    pairs = collision_pairs(robot_layout(robot, compiled.physics, set(), 0.0))
-    sim = simulation_of(compiled)
-    model, data, bodies = sim.model, sim.data, compiled.body_ids
-    size = compiled.physics.scene.voxel_size
-    steps = round(sum(compiled.physics.scene.timing(3)) / compiled.timestep)
-    previous, moved, candidates, touching, missed = None, np.inf, None, 0, 0
-    for _ in range(0, steps, every):
-        sim.run(every)
-        mujoco.mj_kinematics(model, data)
-        x = data.xpos[bodies] / size
-        moved += 0.0 if previous is None else float(np.max(np.linalg.norm(x - previous, axis=1)))
-        previous = x.copy()
-        distance = np.linalg.norm(x[pairs[:, 0]] - x[pairs[:, 1]], axis=1)
-        if moved > 0.5:
-            candidates, moved = distance < 2.0, 0.0
-        touching += int(np.count_nonzero(distance < 1.5))
-        missed += int(np.count_nonzero((distance < 1.5) & ~candidates))
-    return touching, missed
+def horizon_walks(robot: Robot, engine: PaperEngine, horizons: list[float]) -> dict[str, float]:
+    """{"<H>": the engine's distance with CollisionHorizon H}, at the paper's step with its
+    self-collision."""
+    settle, measured = PAPER_TIMES[3]
+    return {f"{h:g}": engine.run_window(robot.grid, dt_fraction=PAPER_DT_FRACTION,
+                                        stop=settle + measured, measure_from=settle,
+                                        settings={"CollisionHorizon": h})["distance"]
+            for h in horizons}
 
 
 def _ratios(row: dict) -> dict[str, float] | None:
@@ -147,6 +110,8 @@ def markdown(rows: list[dict]) -> str:
         for row in rows:
             row["ratio"] = _ratios(row)
         tables.append(("ratio", "engine / mjregen"))
+    if all("horizons" in r for r in rows):
+        tables.append(("horizons", "engine, CollisionHorizon"))
     lines = []
     for simulator, label in tables:
         keys = list(rows[0][simulator])
@@ -165,12 +130,15 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--starts", type=int, default=5, help="mjregen starts per cell")
     parser.add_argument("--steps", type=float, nargs="+", default=[1.0, 0.5, 0.25],
                         help="factors of both simulators' default time step")
-    parser.add_argument("--contacts", action="store_true",
-                        help="also count mjregen's contacts outside the engine's candidates")
+    parser.add_argument("--horizons", type=float, nargs="+", metavar="H",
+                        help="also walk the engine with these CollisionHorizon values "
+                             "(the paper's: 2; 2 to 2.66 keep its 3 bonds)")
     parser.add_argument("--json", type=Path, help="write the measurements here")
     args = parser.parse_args(argv)
     if args.starts < 1 or not all(0.0 < f <= 1.0 for f in args.steps):
         parser.error("--starts must be >= 1 and each --steps factor in (0, 1]")
+    if args.horizons and not all(h >= 1.0 for h in args.horizons):
+        parser.error("each --horizons value must be >= 1 (voxel sizes)")
     try:
         engine = PaperEngine(args.voxelyze)
         rows = []
@@ -181,8 +149,8 @@ def main(argv: list[str] | None = None) -> int:
             rows.append({"name": name or Path(path).stem, "voxels": robot.n_voxels,
                          "mjregen": mjregen_walks(robot, args.starts, args.steps),
                          "engine": engine_walks(robot, engine, args.steps)})
-            if args.contacts:
-                rows[-1]["touching"], rows[-1]["missed"] = missed_contacts(robot)
+            if args.horizons:
+                rows[-1]["horizons"] = horizon_walks(robot, engine, args.horizons)
             print(rows[-1], flush=True)
     except (MjregenError, OSError, ValueError) as error:
         parser.error(str(error))
