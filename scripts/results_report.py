@@ -225,6 +225,13 @@ def _network_comparison(dim: int, ff: list, lstm: list, left_out: int = 0) -> st
             f"{paper} ({ex.CONDITIONS[f'{dim}d_ff'].paper_runs} runs per condition).")
 
 
+def _damage_name(damage: str) -> str:
+    """A grow-regrow damage (`--cut`) in words."""
+    return {"paper": "the paper's cut, grid x-indices 0–3",
+            "half": "each robot's own lower half across its longest extent"}.get(
+                damage, f"the half-space `{damage}`")
+
+
 def _evaluation_cell(task: dict, dim: int) -> str:
     """The settings table's evaluation column of a run's stored task: body, settle and walk
     times against the paper's, and its physics against today's defaults."""
@@ -831,9 +838,10 @@ class Report:
     def self_regrowth(self) -> None:
         """One NCA that grows and regrows (`mjregen evolve --task grow-regrow`): the best NCA
         of each run under <root>/grow_regrow_<name>/seed_<n>, beside the growth-only 3D runs
-        of the same network and evaluations judged the same way, compared by exact tests."""
+        of the same network and evaluations judged after the same damage, compared by exact
+        tests; a table per grow-regrow condition."""
         from mjregen.experiments.engine_walks import read_kept
-        from mjregen.experiments.self_regrowth import ENGINE_FILE, self_regrowth_report
+        from mjregen.experiments.self_regrowth import ENGINE_FILE, run_damage
 
         self.add("## One NCA that grows and regrows", "")
         folders = sorted(Path(self.args.root).glob("grow_regrow_*/seed_*"))
@@ -844,41 +852,43 @@ class Report:
                      "--cell-cost 0 --dim 3 --net ff --preset 3d --out "
                      "runs/paper/grow_regrow_walk_ff/seed_0`).", "")
             return
-        nets = sorted({r.config["task"]["nca"]["kind"] for r in runs})
-        alone = [r for net in nets for r in self.runs.get(f"3d_{net}", []) if r.complete]
         self.add("The paper needed two networks, one that grows a walker and one that regrows "
                  "it. Here one NCA is evolved for both (`--task grow-regrow`: fitness = "
-                 "locomotion fitness − cell cost × cells wrongly regrown after the paper's cut, "
+                 "locomotion fitness − cell cost × cells wrongly regrown after its damage, "
                  "from its own grown CA state, memory included; with a regrown weight w > 0 the "
                  "locomotion fitness is (1 − w) × the grown robot's + w × the regrown robot's, "
-                 "`--regrown-weight`). Each run's best NCA grows its robot, which is cut (the "
-                 "paper's cut and 8 random half-space cuts) and regrown by the same NCA; the "
-                 "original, damaged and regrown robots of the paper's cut walk as in Table 1, "
-                 "here and in the paper's engine. Below them, the finished growth-only runs "
-                 "of the same network and the same evaluations (`3d_<net>`), whose best NCA "
-                 "is judged the same way: what a growth-only NCA regrows from the cut.", "",
-                 "| run | GA (pop × gens done) | cell cost, regrown weight | fitness | "
-                 "similarity after the paper's cut (of 729) | after random cuts: mean (min) | "
-                 "original / damaged / regrown (% of original) | in the paper's engine |",
-                 "|---|---|---|---|---|---|---|---|")
+                 "`--regrown-weight`). The damage (`--cut`) is the paper's cut (grid x-indices "
+                 "0–3 erased) or each robot's own lower half across its longest extent "
+                 "(`half`, which for a robot across x 1–7 is the paper's cut). Each run's best "
+                 "NCA grows its robot, which is damaged (its damage and 8 random half-space "
+                 "cuts) and regrown by the same NCA; the original, damaged and regrown robots "
+                 "of its damage walk as in Table 1, here and in the paper's engine. Below "
+                 "them, the finished growth-only runs of the same network and the same "
+                 "evaluations (`3d_<net>`), whose best NCA is judged after the same damage: "
+                 "what a growth-only NCA regrows.", "")
         measured = read_kept(Path(self.args.root) / ENGINE_FILE)
-        reports = {}
-        for run in runs + alone:
-            nca, physics, duration = self._nca_and_walk(run)
-            reports[run.path] = report = self_regrowth_report(nca, physics=physics,
-                                                              duration=duration)
-            self._self_regrowth_row(run, report, measured)
-        cuts = [k for k in report.similarity if k != "paper"]
-        self.add("", "Random cuts: " + ", ".join(f"`{k}`" for k in cuts) + ". Distances in "
+        cuts: list[str] = []
+        for condition in sorted({r.condition for r in runs}):
+            mine = [r for r in runs if r.condition == condition]
+            damage = run_damage(mine[0])
+            net = mine[0].config["task"]["nca"]["kind"]
+            alone = [r for r in self.runs.get(f"3d_{net}", []) if r.complete]
+            self.add(f"**{condition}** (damage: {_damage_name(damage)})", "",
+                     "| run | GA (pop × gens done) | cell cost, regrown weight | fitness | "
+                     "similarity after the damage (of 729) | after random cuts: mean (min) | "
+                     "original / damaged / regrown (% of original) | in the paper's engine |",
+                     "|---|---|---|---|---|---|---|---|")
+            reports = {}
+            for run in mine + alone:
+                reports[run.path] = report = self._self_regrowth_row(run, damage, measured)
+            cuts = [k for k in report.similarity if k != damage]
+            self.add("")
+            self._self_regrowth_comparison(condition, [r for r in mine if r.complete], alone,
+                                           reports)
+        self.add("Random cuts: " + ", ".join(f"`{k}`" for k in cuts) + ". Distances in "
                  "voxel lengths over 0.5 s from the fitness's start (ours) and as the paper's "
                  "code runs its engine (`python benchmarks/transfer.py --voxelyze DIR "
                  f"--grow-regrow ROOT`, kept in ROOT/{ENGINE_FILE}; – where not measured).", "")
-        for condition in sorted({r.condition for r in runs}):
-            mine = [r for r in runs if r.condition == condition]
-            finished = [r for r in mine if r.complete]
-            net = mine[0].config["task"]["nca"]["kind"]
-            same_net = [r for r in alone if r.config["task"]["nca"]["kind"] == net]
-            self._self_regrowth_comparison(condition, finished, same_net, reports)
 
     def _nca_and_walk(self, run: ex.RunInfo) -> tuple:
         """(best NCA, physics, duration) of a run, for `self_regrowth_report`."""
@@ -888,17 +898,20 @@ class Report:
         task = LocomotionTask.from_config({**run.config["task"], "task": "locomotion"})
         return load_nca(run.best_files()[0])[0], task.physics, task.duration
 
-    def _self_regrowth_row(self, run: ex.RunInfo, report, measured: dict) -> None:
-        """A run's row of the grow-regrow table."""
-        from mjregen.experiments.self_regrowth import engine_key
+    def _self_regrowth_row(self, run: ex.RunInfo, damage: str, measured: dict):
+        """A run's row of the grow-regrow table, its NCA judged after `damage`; returns the
+        `SelfRegrowthReport`."""
+        from mjregen.experiments.self_regrowth import engine_key, self_regrowth_report
 
+        nca, physics, duration = self._nca_and_walk(run)
+        report = self_regrowth_report(nca, physics=physics, duration=duration, damage=damage)
         task = run.config["task"]
         distance = report.recovery.distance
-        cuts = [v for k, v in report.similarity.items() if k != "paper"]
+        cuts = [v for k, v in report.similarity.items() if k != damage]
         weights = (f"{task['cell_cost']:g}, {task.get('regrown_weight', 0.0):g}"
                    if task.get("task") == "grow-regrow" else "growth only")
         under_way = "" if run.complete else f" (under way, of {run.generations_planned})"
-        engine = [measured.get(engine_key(self.args.root, run, role))
+        engine = [measured.get(engine_key(self.args.root, run, role, damage))
                   for role in ("original", "damaged", "regrown")]
 
         def walks(values: list) -> str:
@@ -910,9 +923,10 @@ class Report:
             return " / ".join([fmt_distance(values[0], 3), *shares])
         self.add(f"| {run.condition} seed {run.seed} | {run.config['ga']['population']} × "
                  f"{run.generations_done}{under_way} | {weights} | {run.best_fitness:.4g} | "
-                 f"{report.similarity['paper']} | {np.mean(cuts):.1f} ({min(cuts)}) | "
+                 f"{report.similarity[damage]} | {np.mean(cuts):.1f} ({min(cuts)}) | "
                  f"{walks([distance[r] for r in ('original', 'damaged', 'regrown')])} | "
                  f"{walks(engine)} |")
+        return report
 
     def _self_regrowth_comparison(self, condition: str, runs: list[ex.RunInfo],
                                   alone: list[ex.RunInfo], reports: dict) -> None:
@@ -927,7 +941,7 @@ class Report:
             return
         for role, what in (("original", "the grown robot's distance (what walking the "
                                         "regrown robot too costs)"),
-                           ("regrown", "the regrown robot's distance after the paper's cut "
+                           ("regrown", "the regrown robot's distance after the damage "
                                        "(what it gains)")):
             groups = [[reports[r.path].recovery.distance[role] for r in group]
                       for group in (runs, alone)]

@@ -79,7 +79,9 @@ def _add_task_arguments(task: argparse._ArgumentGroup) -> None:
                            "fitness - --cell-cost x wrongly regrown cells; with "
                            "--regrown-weight the regrown robot walks too)")
     task.add_argument("--cut", help="grow-regrow: the damage, 'paper' (the default: grid "
-                                    "x-indices below the centre) or a half-space such as "
+                                    "x-indices below the centre), 'half' (each robot's own "
+                                    "lower half across its longest extent, which no robot "
+                                    "avoids by growing elsewhere) or a half-space such as "
                                     "'z > 4'")
     task.add_argument("--cell-cost", type=float,
                       help="grow-regrow: voxel lengths of walking one wrongly regrown cell "

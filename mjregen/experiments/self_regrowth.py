@@ -37,12 +37,13 @@ ENGINE_FILE = "grow_regrow_engine.json"  # in a results root: `measure_in_engine
 class SelfRegrowthReport:
     """Attributes:
       cells: grid cells (729 in 3D).
-      similarity: {cut: cells of the regrown grid equal to the grown one}, the paper's cut
-        first.
-      recovery: the original, damaged and regrown robots' walks after the paper's cut.
+      damage: the cut the robots were walked after ("paper", "half" or a half-space).
+      similarity: {cut: cells of the regrown grid equal to the grown one}, `damage` first.
+      recovery: the original, damaged and regrown robots' walks after `damage`.
     """
 
     cells: int
+    damage: str
     similarity: dict[str, int]
     recovery: RecoveryReport
 
@@ -59,37 +60,55 @@ def random_cuts(count: int, *, dim: int, grid_size: int, seed: int = 0) -> list[
 
 
 def self_regrowth_report(nca: NCA, *, physics: Physics | None = None,
-                         duration: float | None = None, cuts: list[str] | None = None
-                         ) -> SelfRegrowthReport:
-    """Grow `nca`'s robot, cut it (the paper's cut and `cuts`; default 8 `random_cuts`),
-    regrow each with the same NCA, and walk the original, damaged and regrown robots of
-    the paper's cut."""
+                         duration: float | None = None, cuts: list[str] | None = None,
+                         damage: str = PAPER_CUT) -> SelfRegrowthReport:
+    """Grow `nca`'s robot, cut it (`damage`: "paper", "half" or a half-space, and `cuts`;
+    default 8 `random_cuts`), regrow each with the same NCA, and walk the original, damaged
+    and regrown robots of `damage`."""
     config = nca.config
     cuts = random_cuts(8, dim=config.dim, grid_size=config.grid_size) if cuts is None else cuts
     growth = nca.grow()
     regrown = {cut: regrow_after_cut(config, nca.genome[None], growth, cut)
-               for cut in [PAPER_CUT, *cuts]}
+               for cut in dict.fromkeys([damage, *cuts])}
     similarity = {cut: int(own_similarity(grids, growth.grids)[0]) for cut, grids in regrown.items()}
-    robots = _paper_cut_robots(config, growth, regrown[PAPER_CUT])
-    return SelfRegrowthReport(cells=int(growth.grids[0].size), similarity=similarity,
+    robots = _cut_robots(config, growth, regrown[damage], damage)
+    return SelfRegrowthReport(cells=int(growth.grids[0].size), damage=damage,
+                              similarity=similarity,
                               recovery=measure_recovery(robots, physics=physics, duration=duration))
 
 
-def self_regrowth_robots(nca: NCA, growth: Growth | None = None) -> dict[str, Robot]:
-    """`nca`'s grown robot ("original"), the paper's cut of it ("damaged") and what the same
-    NCA regrows from that cut ("regrown"); `growth`: `nca.grow()` where the caller has it."""
+def self_regrowth_robots(nca: NCA, growth: Growth | None = None, damage: str = PAPER_CUT
+                         ) -> dict[str, Robot]:
+    """`nca`'s grown robot ("original"), `damage` ("paper", "half" or a half-space) done to it
+    ("damaged") and what the same NCA regrows from that ("regrown"); `growth`: `nca.grow()`
+    where the caller has it."""
     growth = nca.grow() if growth is None else growth
-    return _paper_cut_robots(nca.config, growth,
-                             regrow_after_cut(nca.config, nca.genome[None], growth, PAPER_CUT))
+    return _cut_robots(nca.config, growth,
+                       regrow_after_cut(nca.config, nca.genome[None], growth, damage), damage)
 
 
-def _paper_cut_robots(config: NCAConfig, growth: Growth, regrown: np.ndarray
-                      ) -> dict[str, Robot]:
-    """The original, damaged and regrown robots of the paper's cut, given the regrown grids
+def _cut_robots(config: NCAConfig, growth: Growth, regrown: np.ndarray, damage: str
+                ) -> dict[str, Robot]:
+    """The original, damaged and regrown robots of `damage`, given the regrown grids
     ``(1, *grid)``."""
     return {"original": growth.robot(),
-            "damaged": damaged_robot(damaged_states(config, growth, PAPER_CUT)),
+            "damaged": damaged_robot(damaged_states(config, growth, damage)),
             "regrown": Robot(regrown[0])}
+
+
+def run_damage(run: RunInfo) -> str | None:
+    """The damage a grow-regrow run was evolved to regrow from (its task's cut); None for a
+    growth-only run."""
+    task = run.config["task"]
+    return task.get("cut", PAPER_CUT) if task.get("task") == "grow-regrow" else None
+
+
+def damages(runs: list[RunInfo]) -> dict[Path, list[str]]:
+    """The damages each run is judged after: a grow-regrow run its own; a growth-only run
+    the paper's cut and every grow-regrow run's, to be compared with each."""
+    evolved = list(dict.fromkeys(d for d in map(run_damage, runs) if d is not None))
+    everyone = list(dict.fromkeys([PAPER_CUT, *evolved]))
+    return {run.path: [run_damage(run)] if run_damage(run) else everyone for run in runs}
 
 
 def finished_runs(root: str | Path) -> list[RunInfo]:
@@ -108,19 +127,24 @@ def finished_runs(root: str | Path) -> list[RunInfo]:
 def measure_in_engine(root: str | Path, engine: PaperEngine, *,
                       progress: Callable[[str], None] = print) -> dict[str, float | None]:
     """Walk in `engine` the `self_regrowth_robots` of the best NCA of each of
-    `finished_runs` not yet in ``root/grow_regrow_engine.json`` (keys
-    `engine_key`), add them there and return all its distances."""
+    `finished_runs` after each of its `damages` not yet in ``root/grow_regrow_engine.json``
+    (keys `engine_key`), add them there and return all its distances."""
 
     def robots():
-        for run in finished_runs(root):
-            made = functools.cache(lambda run=run: self_regrowth_robots(
-                load_nca(run.best_files()[0])[0]))
-            for role in ROLES:
-                yield engine_key(root, run, role), lambda made=made, role=role: made()[role]
+        runs = finished_runs(root)
+        for run in runs:
+            for damage in damages(runs)[run.path]:
+                made = functools.cache(lambda run=run, damage=damage: self_regrowth_robots(
+                    load_nca(run.best_files()[0])[0], damage=damage))
+                for role in ROLES:
+                    yield (engine_key(root, run, role, damage),
+                           lambda made=made, role=role: made()[role])
     return walk_new(Path(root, ENGINE_FILE), robots(), engine, progress=progress)
 
 
-def engine_key(root: str | Path, run: RunInfo, role: str) -> str:
-    """The key of a run's `role` robot in grow_regrow_engine.json: the run folder's path
-    relative to `root`, then the role."""
-    return f"{run.path.relative_to(root).as_posix()}/{role}"
+def engine_key(root: str | Path, run: RunInfo, role: str, damage: str = PAPER_CUT) -> str:
+    """The key of a run's `role` robot after `damage` in grow_regrow_engine.json: the run
+    folder's path relative to `root`, the damage unless it is the paper's cut, then the
+    role."""
+    cut = "" if damage == PAPER_CUT else f"{damage}/"
+    return f"{run.path.relative_to(root).as_posix()}/{cut}{role}"

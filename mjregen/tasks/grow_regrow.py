@@ -4,7 +4,10 @@ The paper evolves two networks, one that grows and one that regrows, and names t
 limitation. Here one genome does both: its NCA grows a robot from the seed (the locomotion
 task), the grown CA state is damaged as in the paper (its cells on one side of a plane
 erased, state, alpha and LSTM memory), and the same NCA runs its growth steps again from
-the damaged state (it keeps its own memory: it is the same network). The fitness judges the
+the damaged state (it keeps its own memory: it is the same network). The damage is a
+half-space of the grid ("paper": grid x-indices 0-3 of 9, or any condition such as "y > 4"),
+or "half": each robot's own lower half across its longest extent (`half_cut`), which no
+robot can avoid by growing away from a fixed plane. The fitness judges the
 regrowth by its form, its function or both:
 
     fitness = (1 - w) × locomotion(grown) + w × locomotion(regrown)
@@ -25,17 +28,18 @@ from typing import TYPE_CHECKING
 import numpy as np
 import torch
 
-from mjregen.grid import half_space_mask
+from mjregen.grid import AXIS_NAMES, InvalidGridError, half_space_mask
 from mjregen.growth.nca import CAState, Growth, NCAConfig, grow
 from mjregen.physics import Physics
 from mjregen.tasks.evaluation import PopulationEvaluation
 from mjregen.tasks.locomotion import DEFAULT_STARTS, LocomotionTask
-from mjregen.tasks.regrowth import cut_half_space
+from mjregen.tasks.regrowth import cut_half_space, erase_cells
 
 if TYPE_CHECKING:  # the search layer hands a task its backend
     from mjregen.search.backends import Backend
 
 PAPER_CUT = "paper"  # the paper's damage: grid x-indices below the centre
+HALF_CUT = "half"  # each robot's own lower half across its longest extent
 
 
 def grown_states(growth: Growth) -> CAState:
@@ -47,13 +51,31 @@ def grown_states(growth: Growth) -> CAState:
 
 
 def cut_condition(cut: str, grid_size: int) -> str:
-    """The half-space condition of a cut: "paper" is ``x < centre`` (0-3 of 9)."""
+    """The half-space condition of a fixed cut: "paper" is ``x < centre`` (0-3 of 9)."""
     return f"x < {grid_size // 2}" if cut == PAPER_CUT else cut
 
 
+def half_cut(grid: np.ndarray) -> str:
+    """The half-space condition of `grid`'s "half" cut: the cells below the middle of the
+    robot's extent along its longest axis (the first of the longest), ``"<axis> < m"`` with
+    m = (lowest + highest + 1) // 2 of its voxels' indices there. A robot spanning x 1-7 of a
+    9-grid (as the paper's do) gets the paper's cut, ``"x < 4"``; a column one voxel wide
+    loses its lower cells. An empty grid gets ``"x < 0"`` (nothing)."""
+    cells = np.argwhere(grid != 0)
+    if len(cells) == 0:
+        return "x < 0"
+    low, high = cells.min(axis=0), cells.max(axis=0)
+    axis = int(np.argmax(high - low))
+    return f"{AXIS_NAMES[grid.ndim][axis]} < {(low[axis] + high[axis] + 1) // 2}"
+
+
 def damaged_states(config: NCAConfig, growth: Growth, cut: str = PAPER_CUT) -> CAState:
-    """The grown states of a population cut by `cut` (a half-space condition such as
-    ``"z > 4"``, or "paper")."""
+    """The grown states of a population cut by `cut`: a half-space condition such as
+    ``"z > 4"``, "paper", or "half" (each robot its own `half_cut`)."""
+    if cut == HALF_CUT:
+        masks = np.stack([half_space_mask(config.grid_shape, half_cut(grid))
+                          for grid in growth.grids])
+        return erase_cells(grown_states(growth), masks)
     return cut_half_space(grown_states(growth), cut_condition(cut, config.grid_size))
 
 
@@ -76,7 +98,8 @@ class GrowRegrowTask:
     Attributes:
       nca: the network that grows and regrows.
       physics, duration, starts, start_seed: the walk, as in `LocomotionTask`.
-      cut: the damage during evolution: "paper" or a half-space condition ("y > 4").
+      cut: the damage during evolution: "paper", "half" (each robot's own lower half,
+        `half_cut`) or a half-space condition ("y > 4").
       cell_cost: voxel lengths of walking one wrongly regrown cell costs.
       regrown_weight: the share of the regrown robot's locomotion fitness in the fitness, in
         [0, 1]; 0 (the default) does not walk it.
@@ -97,7 +120,12 @@ class GrowRegrowTask:
             raise ValueError(f"cell_cost must be finite and >= 0, got {self.cell_cost!r}")
         if not 0.0 <= self.regrown_weight <= 1.0:
             raise ValueError(f"regrown_weight must be in [0, 1], got {self.regrown_weight!r}")
-        half_space_mask(self.nca.grid_shape, cut_condition(self.cut, self.nca.grid_size))
+        if self.cut != HALF_CUT:
+            try:
+                half_space_mask(self.nca.grid_shape, cut_condition(self.cut, self.nca.grid_size))
+            except InvalidGridError as error:
+                raise InvalidGridError(f"cut must be {PAPER_CUT!r}, {HALF_CUT!r} or a half-space "
+                                       f"of the grid: {error}") from None
         object.__setattr__(self, "_locomotion", LocomotionTask(
             nca=self.nca, physics=self.physics, duration=self.duration, starts=self.starts,
             start_seed=self.start_seed))

@@ -84,17 +84,29 @@ def _fresh_memory(config: NCAConfig, population: int) -> tuple[torch.Tensor, tor
 
 
 def _erase(state: CAState, mask: np.ndarray) -> CAState:
-    """Zero state, alpha and memory of the cells in `mask` (bool, grid shape)."""
+    """Zero state, alpha and memory of the cells in `mask` (bool: the grid's shape for every
+    individual alike, or ``(P, *grid)``, one mask per individual)."""
     cells = torch.from_numpy(mask)
+    if cells.dim() == state.state.dim() - 1:
+        cells = cells[None]
     memory = None
     if state.memory is not None:
-        inner = cells[(slice(1, -1),) * cells.dim()]  # memory covers the interior only
-        memory = tuple(torch.where(inner[None, ..., None], 0.0, m) for m in state.memory)
+        inner = cells[(slice(None),) + (slice(1, -1),) * (cells.dim() - 1)]  # memory: interior
+        memory = tuple(torch.where(inner[..., None], 0.0, m) for m in state.memory)
     return CAState(
-        state=torch.where(cells[None], 0, state.state),
-        alpha=torch.where(cells[None], 0.0, state.alpha),
+        state=torch.where(cells, 0, state.state),
+        alpha=torch.where(cells, 0.0, state.alpha),
         memory=memory,
     )
+
+
+def erase_cells(state: CAState, masks: np.ndarray) -> CAState:
+    """Damage: erase, in each individual of `state`, the cells of its own mask (bool
+    ``(P, *grid)``)."""
+    if masks.shape != tuple(state.state.shape):
+        raise ValueError(f"masks of shape {masks.shape} do not match the states "
+                         f"{tuple(state.state.shape)}")
+    return _erase(state, masks)
 
 
 def cut_half_space(state: CAState, condition: str) -> CAState:

@@ -571,6 +571,46 @@ def test_grow_regrow_runs_are_judged_beside_growth_only_runs_here_and_in_the_eng
     assert "(n=1) vs growth-only" in text and "no difference this n can show" in text
 
 
+def test_a_grow_regrow_condition_is_judged_after_its_own_damage_and_so_are_the_others(
+        results, tmp_path):
+    from mjregen.experiments import self_regrowth
+    from mjregen.tasks.grow_regrow import GrowRegrowTask
+    from mjregen.validation.engine import PaperEngine
+
+    root = tmp_path / "root"
+    shutil.copytree(results, root)
+    run = root / "grow_regrow_half_ff" / "seed_0"  # a growth-only NCA, as if evolved so
+    shutil.copytree(root / "3d_ff" / "seed_1", run)
+    config = json.loads((run / "config.json").read_text())
+    task = LocomotionTask.from_config(config["task"])
+    config["task"] = GrowRegrowTask(nca=task.nca, physics=task.physics, duration=task.duration,
+                                    cut="half", regrown_weight=0.5).to_config()
+    (run / "config.json").write_text(json.dumps(config))
+    engine = tmp_path / "engine"
+    engine.mkdir()
+    (engine / "vxa.py").write_text("def run(grid):\n"
+                                   "    return {'distance': float((grid > 0).sum()), 'cpu_s': 0}\n")
+    measured = self_regrowth.measure_in_engine(root, PaperEngine(engine), progress=lambda _: None)
+    nca, _ = load_nca(ex.read_run(run).best_files()[0])
+    half = self_regrowth.self_regrowth_robots(nca, damage="half")
+    assert {k: v for k, v in measured.items() if k.startswith("grow_regrow_half_ff/")} == {
+        f"grow_regrow_half_ff/seed_0/half/{role}": float(robot.n_voxels)
+        for role, robot in half.items()}
+    # the growth-only runs: after the paper's cut and after each robot's own half
+    assert "3d_ff/seed_1/damaged" in measured and "3d_ff/seed_1/half/damaged" in measured
+    assert measured["3d_ff/seed_1/half/damaged"] == float(half["damaged"].n_voxels)
+    out = tmp_path / "docs" / "results.md"
+    assert results_report.main(["--root", str(root), "--assets", str(tmp_path), "--out", str(out),
+                                "--no-render"]) == 0
+    text = out.read_text()
+    assert "**grow_regrow_half_ff** (damage: each robot's own lower half" in text
+    table = text.split("**grow_regrow_half_ff**")[1]
+    row = next(line for line in table.splitlines() if line.startswith("| grow_regrow_half_ff"))
+    alone = next(line for line in table.splitlines() if line.startswith("| 3d_ff seed 1 | 4 × 2 |"))
+    assert row.split(" | ")[3:] == alone.split(" | ")[3:]  # the same NCA, the same damage
+    assert f"| {half['original'].n_voxels} / {half['damaged'].n_voxels} (" in row
+
+
 def test_the_networks_are_also_compared_by_their_robots_walks_in_the_engine(results, tmp_path):
     root = tmp_path / "root"
     shutil.copytree(results, root)

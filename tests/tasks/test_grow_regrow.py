@@ -97,3 +97,47 @@ def test_configuration_round_trip_and_bad_settings():
         GrowRegrowTask(nca=NCAConfig(dim=2), cut="y > 2")
     with pytest.raises(ValueError, match="not a grow-regrow task"):
         GrowRegrowTask.from_config(LocomotionTask(nca=NCAConfig(dim=3)).to_config())
+
+
+def test_the_half_cut_takes_each_robots_own_lower_half_which_no_robot_can_grow_away_from():
+    from mjregen.grid import Material
+    from mjregen.tasks.grow_regrow import damaged_states, half_cut
+
+    paper_like = np.zeros((9, 9, 9), np.int8)
+    paper_like[1:8, 3:6, 1:4] = int(Material.SOFT)
+    assert half_cut(paper_like) == "x < 4"  # a robot across x 1-7: the paper's cut
+    column = np.zeros((9, 9, 9), np.int8)
+    column[7, 7, 1:8] = int(Material.MUSCLE_MINUS)
+    assert half_cut(column) == "z < 4"  # one voxel wide: cut across its height
+    assert half_cut(np.zeros((9, 9), np.int8)) == "x < 0"  # nothing to cut
+
+    config = NCAConfig(dim=3, kind="lstm")
+    growth = grow(config, random_genomes(config, 3, seed=5))
+    growth.grids[0] = column  # a robot away from the paper's cut, as evolution found one
+    paper = damaged_states(config, growth, "paper")
+    half = damaged_states(config, growth, "half")
+    assert np.array_equal(paper.state[0].numpy(), column)  # the paper's cut misses it
+    assert np.count_nonzero(half.state[0].numpy()) == 4  # z 4-7 are left
+    for i, grid in enumerate(growth.grids):
+        if np.count_nonzero(grid) > 1:  # every robot of more than one voxel loses cells
+            assert np.count_nonzero(half.state[i].numpy()) < np.count_nonzero(grid)
+        axis, _, middle = half_cut(grid).split()
+        k = "xyz".index(axis)
+        kept = np.moveaxis(half.state[i].numpy(), k, 0)
+        assert not kept[: int(middle)].any()  # state erased below the middle ...
+        alpha = np.moveaxis(half.alpha[i].numpy(), k, 0)
+        assert not alpha[: int(middle)].any()  # ... alpha too ...
+        memory = np.moveaxis(half.memory[0][i].numpy(), k, 0)  # ... and LSTM memory (interior)
+        assert not memory[: max(int(middle) - 1, 0)].any()
+
+
+def test_a_half_cut_task_evaluates_and_round_trips():
+    config = NCAConfig(dim=2, kind="ff")
+    genomes = random_genomes(config, 4, seed=6)
+    task = GrowRegrowTask(nca=config, physics=FAST, duration=0.02, cut="half", cell_cost=0.25)
+    again = GrowRegrowTask.from_config(task.to_config())
+    assert again == task and again.cut == "half"
+    result = task.evaluate(genomes, SerialBackend())
+    growth = grow(config, genomes)
+    score = own_similarity(regrow_after_cut(config, genomes, growth, "half"), growth.grids)
+    assert np.array_equal(result.details["similarity"], score)
