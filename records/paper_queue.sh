@@ -39,10 +39,14 @@ grown() {  # ROBOT NET: Table 1 from the robot's grown CA state, where an NCA gr
     fi
 }
 
-grow_regrow() {  # SEED: one NCA that grows and regrows, judged by function
-    local out=runs/paper/grow_regrow_walk_ff/seed_$1
-    mjregen evolve --task grow-regrow --regrown-weight 0.5 --cell-cost 0 --dim 3 --net ff \
-        --preset 3d --seed "$1" --backend serial --quiet --out "$out" $(resume "$out")
+grow_regrow() {  # CUT SEED: one NCA that grows and regrows, judged by function; CUT paper
+    # (the paper's fixed cut: grow_regrow_walk_ff) or half (each robot's own half:
+    # grow_regrow_half_ff)
+    local name=walk_ff cut=()
+    if [ "$1" = half ]; then name=half_ff; cut=(--cut half); fi
+    local out=runs/paper/grow_regrow_$name/seed_$2
+    mjregen evolve --task grow-regrow "${cut[@]}" --regrown-weight 0.5 --cell-cost 0 --dim 3 \
+        --net ff --preset 3d --seed "$2" --backend serial --quiet --out "$out" $(resume "$out")
 }
 
 started() {  # the run folders among the arguments with a generation (an iteration) done
@@ -75,7 +79,8 @@ case "${1:-}" in
         ;;
     b)
         for seed in 0 1 2 3 4 5 6; do evolve_3d lstm "$seed"; done
-        for seed in 0 1 2; do grow_regrow "$seed"; done
+        for seed in 0 1 2; do grow_regrow paper "$seed"; done
+        for seed in 0 1 2; do grow_regrow half "$seed"; done
         python scripts/qd_comparison.py --root runs/paper/qd --seeds 0 1 2 --pop 100 --gens 300 \
             --workers 1
         ;;
