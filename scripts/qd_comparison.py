@@ -8,9 +8,9 @@ robots can be placed in the same archive as MAP-Elites' (the same descriptors an
 
 The report (``--report``) writes quality_diversity.md and its figures (quality_diversity/)
 into --docs, the figures folder of the results page that includes it (docs/results/ for
-docs/results.md, `scripts/results_report.py`): per method over seeds, the best fitness, the QD score and coverage
-of all its evaluations placed in one archive, and the number of distinct walking
-morphologies (archive cells whose elite walks at least 25 % as far as the farthest robot
+docs/results.md, `scripts/results_report.py`): per method over seeds, the best fitness, the
+QD score and coverage of all its evaluations placed in one archive, and the number of distinct
+walking morphologies (archive cells whose elite walks at least 25 % as far as the farthest robot
 of the whole comparison); curves of best fitness and QD score over evaluations (means and
 bootstrapped 95 % CIs); each method's archive heatmap and MAP-Elites' gallery (seed 0).
 

@@ -70,7 +70,8 @@ def self_regrowth_report(nca: NCA, *, physics: Physics | None = None,
     growth = nca.grow()
     regrown = {cut: regrow_after_cut(config, nca.genome[None], growth, cut)
                for cut in dict.fromkeys([damage, *cuts])}
-    similarity = {cut: int(own_similarity(grids, growth.grids)[0]) for cut, grids in regrown.items()}
+    similarity = {cut: int(own_similarity(grids, growth.grids)[0])
+                  for cut, grids in regrown.items()}
     robots = _cut_robots(config, growth, regrown[damage], damage)
     return SelfRegrowthReport(cells=int(growth.grids[0].size), damage=damage,
                               similarity=similarity,
