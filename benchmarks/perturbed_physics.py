@@ -1,7 +1,7 @@
 """Do small changes of the physics tell the walks that transfer from those that do not?
 
     python benchmarks/perturbed_physics.py TRANSFER_JSON [--root ROOT] [--only 3d_]
-        [--change 0.03] [--radius 0.02] [--json out.json]
+        [--change 0.03] [--radius 0.02] [--own-starts] [--json out.json]
 
 TRANSFER_JSON is a `benchmarks/transfer.py --json` file (e.g. records/paper/transfer.json):
 its robots measured in the paper's engine, each with its verdict ("transfers"), of which
@@ -11,7 +11,8 @@ given). Each robot walks in mjregen
 from start 0 (seed 0) with today's default physics and with six changes of it, one at a
 time: every material's Young's modulus times 1 ± ``--change``, every material's static and
 kinetic friction times 1 ± ``--change``, and the self-collision radius ± ``--radius`` voxel
-lengths. Printed per robot: the seven distances (voxel lengths over the paper's 0.5 s), their
+lengths (with ``--own-starts`` the k-th of the seven walks from start k instead, as a
+fitness that gives each start its own change of the physics would). Printed per robot: the seven distances (voxel lengths over the paper's 0.5 s), their
 spread (standard deviation / mean) and lowest / default; then the spreads of the robots that
 transfer against those that do not (`mjregen.search.compare`: exact Mann-Whitney and
 permutation tests), and the rank correlation with the engine's walks of the default
@@ -30,7 +31,7 @@ import numpy as np
 
 from mjregen.grid import Robot
 from mjregen.physics import Physics
-from mjregen.physics.simulation import simulate
+from mjregen.physics.simulation import simulate_starts
 from mjregen.search.compare import compare_groups
 
 
@@ -61,16 +62,17 @@ def spearman(x: np.ndarray, y: np.ndarray) -> float:
     return float(np.corrcoef(rx, ry)[0, 1])
 
 
-def measure(entries: list[dict], root: Path, physics: dict[str, Physics], only: str
-            ) -> list[dict]:
+def measure(entries: list[dict], root: Path, physics: dict[str, Physics], only: str,
+            own_starts: bool = False) -> list[dict]:
     """One row per robot of `entries` named ``only...`` and measured in the engine: its walks
-    under `physics`."""
+    under `physics`, from start 0, or the k-th from start k (`own_starts`)."""
     rows = []
     for entry in entries:
         if not entry["name"].startswith(only) or entry.get("engine") is None:
             continue
         robot = Robot.load(root / entry["name"])
-        walks = {name: simulate(robot, physics=p).distance for name, p in physics.items()}
+        walks = {name: simulate_starts(robot, physics=p, starts=[k if own_starts else 0])[0]
+                 .distance for k, (name, p) in enumerate(physics.items())}
         values = np.array(list(walks.values()))
         rows.append({"name": entry["name"], "voxels": robot.n_voxels,
                      "transfers": bool(entry["transfers"]), "engine": entry["engine"],
@@ -112,6 +114,8 @@ def main(argv: list[str] | None = None) -> int:
                         help="relative change of stiffness and friction (default 0.03)")
     parser.add_argument("--radius", type=float, default=0.02,
                         help="change of the self-collision radius, voxel lengths (default 0.02)")
+    parser.add_argument("--own-starts", action="store_true",
+                        help="the k-th walk from start k (default: every walk from start 0)")
     parser.add_argument("--json", type=Path, help="write the rows here")
     args = parser.parse_args(argv)
     if not (0.0 < args.change < 1.0 and 0.0 < args.radius < 0.5):
@@ -119,7 +123,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         entries = json.loads(args.transfer_json.read_text())
         rows = measure(entries, args.root or args.transfer_json.parent,
-                       variants(args.change, args.radius), args.only)
+                       variants(args.change, args.radius), args.only, args.own_starts)
     except (OSError, ValueError, KeyError) as error:
         parser.error(f"{args.transfer_json}: {error}")
     if len({r["transfers"] for r in rows}) < 2:
