@@ -4,6 +4,8 @@ steps and without self-collision, side by side.
     python benchmarks/transfer_causes.py --voxelyze DIR ROBOT.npy|NAME=ROBOT.npy ...
         [--starts 5] [--steps 1 0.5 0.25] [--horizons 2 2.5] [--json out.json]
 
+(the robots before --steps or --horizons, which take every number after them)
+
 For each 3D robot, with the paper's 3D times (0.05 s settle, 0.5 s measured), distances in
 voxel lengths:
   - mjregen, the mean over starts 0 .. ``--starts`` - 1 of seed 0 (1: the default start), at
@@ -67,23 +69,27 @@ def mjregen_walks(robot: Robot, starts: int, factors: list[float]) -> dict[str, 
     return out
 
 
+def engine_distance(robot: Robot, engine: PaperEngine, dt_fraction: float,
+                    settings: dict[str, float]) -> float:
+    """The engine's distance over the paper's 3D window at `dt_fraction`, with `settings`
+    changed from the paper's."""
+    settle, measured = PAPER_TIMES[3]
+    return engine.run_window(robot.grid, dt_fraction=dt_fraction, stop=settle + measured,
+                             measure_from=settle, settings=settings)["distance"]
+
+
 def engine_walks(robot: Robot, engine: PaperEngine, factors: list[float]) -> dict[str, float]:
     """{"<fraction>" / "<fraction> no-col": the engine's distance} at each factor of the
     paper's step fraction."""
-    settle, measured = PAPER_TIMES[3]
-    return {_column(factor * PAPER_DT_FRACTION, collision): engine.run_window(
-                robot.grid, dt_fraction=factor * PAPER_DT_FRACTION, stop=settle + measured,
-                measure_from=settle, settings={"SelfColEnabled": int(collision)})["distance"]
+    return {_column(factor * PAPER_DT_FRACTION, collision): engine_distance(
+                robot, engine, factor * PAPER_DT_FRACTION, {"SelfColEnabled": int(collision)})
             for collision in (True, False) for factor in factors}
 
 
 def horizon_walks(robot: Robot, engine: PaperEngine, horizons: list[float]) -> dict[str, float]:
     """{"<H>": the engine's distance with CollisionHorizon H}, at the paper's step with its
     self-collision."""
-    settle, measured = PAPER_TIMES[3]
-    return {f"{h:g}": engine.run_window(robot.grid, dt_fraction=PAPER_DT_FRACTION,
-                                        stop=settle + measured, measure_from=settle,
-                                        settings={"CollisionHorizon": h})["distance"]
+    return {f"{h:g}": engine_distance(robot, engine, PAPER_DT_FRACTION, {"CollisionHorizon": h})
             for h in horizons}
 
 

@@ -133,8 +133,9 @@ def measure_in_engine(root: str | Path, engine: PaperEngine, *,
 
     def robots():
         runs = finished_runs(root)
+        judged = damages(runs)
         for run in runs:
-            for damage in damages(runs)[run.path]:
+            for damage in judged[run.path]:
                 made = functools.cache(lambda run=run, damage=damage: self_regrowth_robots(
                     load_nca(run.best_files()[0])[0], damage=damage))
                 for role in ROLES:

@@ -527,28 +527,43 @@ def test_the_quality_diversity_section_is_the_page_in_the_reports_own_figures_fo
     assert "![curves](page/quality_diversity/curves.png)" in text  # relative to the report
 
 
-def test_grow_regrow_runs_are_judged_beside_growth_only_runs_here_and_in_the_engine(
-        results, tmp_path):
-    from mjregen.experiments import self_regrowth
+def _as_grow_regrow_run(root: Path, condition: str, **objective) -> Path:
+    """ROOT/<condition>/seed_0: a copy of the growth-only run 3d_ff/seed_1 whose task is a
+    grow-regrow task with `objective` (its best NCA is judged as a growth-only one is)."""
     from mjregen.tasks.grow_regrow import GrowRegrowTask
-    from mjregen.validation.engine import PaperEngine
 
-    root = tmp_path / "root"
-    shutil.copytree(results, root)
-    # a grow-regrow run whose best NCA is a growth-only run's (its judging is the same)
-    run = root / "grow_regrow_walk_ff" / "seed_0"
+    run = root / condition / "seed_0"
     shutil.copytree(root / "3d_ff" / "seed_1", run)
     config = json.loads((run / "config.json").read_text())
     task = LocomotionTask.from_config(config["task"])
     config["task"] = GrowRegrowTask(nca=task.nca, physics=task.physics, duration=task.duration,
-                                    cell_cost=0.0, regrown_weight=0.5).to_config()
+                                    regrown_weight=0.5, **objective).to_config()
     config["seed"] = 0
     (run / "config.json").write_text(json.dumps(config))
-    engine = tmp_path / "engine"
-    engine.mkdir()
-    (engine / "vxa.py").write_text("def run(grid):\n"
+    return run
+
+
+def _voxel_counting_engine(folder: Path):
+    """A stand-in for the paper's engine in `folder` that walks each robot as far as it has
+    voxels."""
+    from mjregen.validation.engine import PaperEngine
+
+    folder.mkdir()
+    (folder / "vxa.py").write_text("def run(grid):\n"
                                    "    return {'distance': float((grid > 0).sum()), 'cpu_s': 0}\n")
-    measured = self_regrowth.measure_in_engine(root, PaperEngine(engine), progress=lambda _: None)
+    return PaperEngine(folder)
+
+
+def test_grow_regrow_runs_are_judged_beside_growth_only_runs_here_and_in_the_engine(
+        results, tmp_path):
+    from mjregen.experiments import self_regrowth
+
+    root = tmp_path / "root"
+    shutil.copytree(results, root)
+    # a grow-regrow run whose best NCA is a growth-only run's (its judging is the same)
+    run = _as_grow_regrow_run(root, "grow_regrow_walk_ff", cell_cost=0.0)
+    engine = _voxel_counting_engine(tmp_path / "engine")
+    measured = self_regrowth.measure_in_engine(root, engine, progress=lambda _: None)
     # two growth-only runs and the grow-regrow run, three robots each, walked as far as voxels
     nca, _ = load_nca(ex.read_run(run).best_files()[0])
     robots = self_regrowth.self_regrowth_robots(nca)
@@ -574,23 +589,12 @@ def test_grow_regrow_runs_are_judged_beside_growth_only_runs_here_and_in_the_eng
 def test_a_grow_regrow_condition_is_judged_after_its_own_damage_and_so_are_the_others(
         results, tmp_path):
     from mjregen.experiments import self_regrowth
-    from mjregen.tasks.grow_regrow import GrowRegrowTask
-    from mjregen.validation.engine import PaperEngine
 
     root = tmp_path / "root"
     shutil.copytree(results, root)
-    run = root / "grow_regrow_half_ff" / "seed_0"  # a growth-only NCA, as if evolved so
-    shutil.copytree(root / "3d_ff" / "seed_1", run)
-    config = json.loads((run / "config.json").read_text())
-    task = LocomotionTask.from_config(config["task"])
-    config["task"] = GrowRegrowTask(nca=task.nca, physics=task.physics, duration=task.duration,
-                                    cut="half", regrown_weight=0.5).to_config()
-    (run / "config.json").write_text(json.dumps(config))
-    engine = tmp_path / "engine"
-    engine.mkdir()
-    (engine / "vxa.py").write_text("def run(grid):\n"
-                                   "    return {'distance': float((grid > 0).sum()), 'cpu_s': 0}\n")
-    measured = self_regrowth.measure_in_engine(root, PaperEngine(engine), progress=lambda _: None)
+    run = _as_grow_regrow_run(root, "grow_regrow_half_ff", cut="half")
+    engine = _voxel_counting_engine(tmp_path / "engine")
+    measured = self_regrowth.measure_in_engine(root, engine, progress=lambda _: None)
     nca, _ = load_nca(ex.read_run(run).best_files()[0])
     half = self_regrowth.self_regrowth_robots(nca, damage="half")
     assert {k: v for k, v in measured.items() if k.startswith("grow_regrow_half_ff/")} == {
