@@ -2,7 +2,6 @@
 the report, on smoke-scale runs (2D evolutions of a few seconds; hand-made 3D run folders)."""
 
 import dataclasses
-import importlib.util
 import json
 import shutil
 from pathlib import Path
@@ -24,20 +23,15 @@ from mjregen.search.runs import METRICS, RunFolderError
 from mjregen.tasks.bodies import body_physics
 from mjregen.tasks.fitness import locomotion_fitness
 from mjregen.tasks.locomotion import LocomotionTask
+from repo_modules import load_module
 
-SCRIPTS = Path(__file__).resolve().parents[2] / "scripts"
 SMOKE = ex.SCALES["smoke"]
 
 
-def script(name: str):
-    spec = importlib.util.spec_from_file_location(name, SCRIPTS / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
 
 paper_experiments, ship_assets, results_report, snapshot_runs = (
-    script(n) for n in ("paper_experiments", "ship_assets", "results_report", "snapshot_runs"))
+    load_module(f"scripts/{n}.py")
+    for n in ("paper_experiments", "ship_assets", "results_report", "snapshot_runs"))
 
 
 def test_conditions_and_paper_scale_are_the_papers():

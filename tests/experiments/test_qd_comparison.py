@@ -2,31 +2,21 @@
 GA against MAP-Elites), kept by scripts/snapshot_runs.py, gives the same report as its
 full run folders, and a record resumes without evaluating anything again."""
 
-import importlib.util
 import shutil
-import sys
 from pathlib import Path
 
 import pytest
 
 from mjregen.search.run_folder import RunFolderError
 from mjregen.search.run_lock import LOCK_FILE
+from repo_modules import load_module
 
 pytest.importorskip("ribs")
 
-SCRIPTS = Path(__file__).resolve().parents[2] / "scripts"
 TINY = ["--seeds", "0", "--pop", "4", "--gens", "3", "--emitters", "2", "--workers", "1", "--quiet"]
 
-
-def script(name: str):
-    spec = importlib.util.spec_from_file_location(name, SCRIPTS / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module  # its dataclasses look their module up there
-    spec.loader.exec_module(module)
-    return module
-
-
-qd_comparison, snapshot_runs = script("qd_comparison"), script("snapshot_runs")
+qd_comparison = load_module("scripts/qd_comparison.py")
+snapshot_runs = load_module("scripts/snapshot_runs.py")
 
 
 def report_text(root: Path, docs: Path) -> list[str]:

@@ -1,7 +1,6 @@
 """Table 1 from several regrowth runs per row (`mjregen.experiments.table1`): grouping, the
 spreads, the paper engine's walks kept beside the runs, and the report's table."""
 
-import importlib.util
 import json
 import math
 from pathlib import Path
@@ -20,8 +19,7 @@ from mjregen.experiments.table1 import (
 )
 from mjregen.grid import Material
 from mjregen.validation.engine import PaperEngine
-
-SCRIPTS = Path(__file__).resolve().parents[2] / "scripts"
+from repo_modules import load_module
 
 # a runner that walks every robot as far as it has voxels and logs each call
 COUNTING_RUNNER = """
@@ -117,9 +115,7 @@ def test_a_damaged_engine_file_is_refused_by_name(root):
 
 
 def test_the_report_shows_each_rows_spread_beside_the_papers_table(root, tmp_path):
-    spec = importlib.util.spec_from_file_location("results_report", SCRIPTS / "results_report.py")
-    report = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(report)
+    report = load_module("scripts/results_report.py")
     (root / ENGINE_FILE).write_text(json.dumps(
         {f"table1/biped_ff/seed_{s}/{role}.npy": d for s in range(3)
          for role, d in (("original", 40.0), ("damaged", 30.0), ("regrown", 10.0 * (s + 1)))}))

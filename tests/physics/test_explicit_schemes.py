@@ -3,19 +3,16 @@ against the closed forms of their stability limits and numerical damping."""
 
 from __future__ import annotations
 
-import importlib.util
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from mjregen.physics.timestep import stable_step
 
-_SPEC = importlib.util.spec_from_file_location(
-    "explicit_schemes", Path(__file__).resolve().parents[2] / "benchmarks" / "explicit_schemes.py")
-schemes = importlib.util.module_from_spec(_SPEC)
-_SPEC.loader.exec_module(schemes)
+from repo_modules import load_module
+
+schemes = load_module("benchmarks/explicit_schemes.py")
 
 LAMBDA = 1.37e8  # s⁻², a 7×7×7 soft block's
 ZETA = 1.77  # its fastest mode's damping ratio

@@ -2,10 +2,6 @@
 
 from __future__ import annotations
 
-import importlib.util
-import sys
-from pathlib import Path
-
 import numpy as np
 
 from mjregen.growth.nca import NCAConfig
@@ -13,11 +9,9 @@ from mjregen.growth.networks import random_genomes
 from mjregen.search.backends import make_backend
 from mjregen.tasks.locomotion import LocomotionTask
 
-_SPEC = importlib.util.spec_from_file_location(
-    "evolution_benchmark", Path(__file__).resolve().parents[2] / "benchmarks" / "evolution.py")
-evolution = importlib.util.module_from_spec(_SPEC)
-sys.modules[_SPEC.name] = evolution
-_SPEC.loader.exec_module(evolution)
+from repo_modules import load_module
+
+evolution = load_module("benchmarks/evolution.py")
 
 
 def test_a_backend_timing_simulates_robots_the_task_already_scored():

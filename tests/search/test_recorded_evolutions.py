@@ -2,19 +2,15 @@
 
 from __future__ import annotations
 
-import importlib.util
 import json
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-_SPEC = importlib.util.spec_from_file_location(
-    "speed_benchmark", Path(__file__).resolve().parents[2] / "benchmarks" / "speed.py")
-speed = importlib.util.module_from_spec(_SPEC)
-sys.modules[_SPEC.name] = speed
-_SPEC.loader.exec_module(speed)
+from repo_modules import load_module
+
+speed = load_module("benchmarks/speed.py")
 
 
 def _record(folder: Path, seed: int, walls: list[float], distinct: list[int]) -> None:

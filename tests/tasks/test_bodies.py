@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from mjregen.errors import InvalidGridError
-from mjregen.grid import Material, Robot, lay_flat
+from mjregen.grid import Material, Robot
 from mjregen.physics import Physics
 from mjregen.tasks.bodies import BODIES, SHEET_SETTLE_REST, as_robots, body_physics, body_robot
 

@@ -6,11 +6,8 @@ the full sweeps are there (docs/accuracy.md).
 
 from __future__ import annotations
 
-import importlib.util
 import math
-import sys
 from dataclasses import replace
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -19,11 +16,9 @@ from mjregen.grid import Material, Robot
 from mjregen.physics import MujocoPipeline, Physics
 from mjregen.validation.integration import Run, evaluate, mujoco_twin
 
-_SPEC = importlib.util.spec_from_file_location(
-    "accuracy_benchmark", Path(__file__).resolve().parents[2] / "benchmarks" / "accuracy.py")
-accuracy = importlib.util.module_from_spec(_SPEC)
-sys.modules[_SPEC.name] = accuracy  # dataclasses look their module up there
-_SPEC.loader.exec_module(accuracy)
+from repo_modules import load_module
+
+accuracy = load_module("benchmarks/accuracy.py")
 
 
 def cantilever_error(integrator: str, dt: float, reference: np.ndarray) -> float:

@@ -3,21 +3,15 @@ amount asked, and the summary ranks and compares what it is given."""
 
 from __future__ import annotations
 
-import importlib.util
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 from mjregen.grid import Material
 from mjregen.physics import Physics
 
-_SPEC = importlib.util.spec_from_file_location(
-    "perturbed_physics", Path(__file__).resolve().parents[2] / "benchmarks" / "perturbed_physics.py")
-perturbed = importlib.util.module_from_spec(_SPEC)
-sys.modules[_SPEC.name] = perturbed
-_SPEC.loader.exec_module(perturbed)
+from repo_modules import load_module
+
+perturbed = load_module("benchmarks/perturbed_physics.py")
 
 
 def test_each_variant_changes_one_part_of_the_physics_by_the_amount_asked():
