@@ -1,8 +1,10 @@
 #!/usr/bin/env python3
 """Write docs/results.md and its figures (docs/results/*.png) from the results runs.
 
-Reads the evolution runs under --root (runs/results/<condition>/seed_<n>), the regrowth runs
-(runs/results/regen_<walker>_<net>/seed_<n>, their recovery.json) and the shipped assets
+Reads the evolution runs under --root (default records/paper, the records in git that
+docs/results.md is made from; runs/results for the runs of `scripts/paper_experiments.py`:
+<root>/<condition>/seed_<n>), the regrowth runs (<root>/regen_<walker>_<net>/seed_<n>, their
+recovery.json) and the shipped assets
 (assets/nca/manifest.json, assets/robots/walkers/walkers.json), and writes:
 
   fitness_2d.png, fitness_3d.png   mean best fitness over runs with bootstrapped 95 % CIs,
@@ -61,6 +63,7 @@ from mjregen.experiments import paper as ex
 from mjregen.validation.transfer import ENGINE, FINER_STEP, KEEP, read_measurements
 
 ROOT = Path(__file__).resolve().parents[1]
+RECORDS = ROOT / "records" / "paper"  # the runs docs/results.md reports, kept in git
 PAPER_GLOB = Path(os.environ.get("MJREGEN_PAPER", "paper"))  # a folder with the paper's LaTeX
 # The paper's Table 1, verbatim (used when its LaTeX is not on this machine).
 TABLE_1_LATEX = r"""
@@ -345,14 +348,14 @@ class Report:
                  "```bash",
                  "python scripts/paper_experiments.py --scale paper --workers $(nproc)",
                  "python scripts/ship_assets.py --best --walkers --overwrite --replace-default",
-                 "python scripts/results_report.py",
+                 f"python scripts/results_report.py --root {ex.DEFAULT_ROOT}",
                  "```",
                  "At a reduced scale (`--scale quick`, about 75 minutes on two cores); the "
                  "settings table below says at which scale each condition here ran:",
                  "```bash",
                  "python scripts/paper_experiments.py --scale quick --workers 2",
                  "python scripts/ship_assets.py --best --walkers --overwrite --replace-default",
-                 "python scripts/results_report.py",
+                 f"python scripts/results_report.py --root {ex.DEFAULT_ROOT}",
                  "```",
                  "`python scripts/paper_experiments.py --scale paper --dry-run` prints every "
                  "`mjregen evolve` / `mjregen regen` command it runs (each writes the same run "
@@ -707,7 +710,7 @@ class Report:
                  "network and start; mean (range) over the row's finished runs; the paper: its "
                  "Table 1, one run of its best network per robot)", "")
         if rows:
-            self.add("| robot (regrowth network) | start | runs (GA) | similarity (of 729) / "
+            self.add("| robot (regrowth network) | start | runs (GA, wall time) | similarity (of 729) / "
                      "paper | original: ours / engine / paper | damaged, % of original: ours / "
                      "engine / paper | regrown, % of original: ours | engine | paper |",
                      "|---|---|---|---|---|---|---|---|---|")
@@ -719,7 +722,9 @@ class Report:
                  f"--voxelyze DIR --table1 ROOT`, kept in ROOT/{ENGINE_FILE}; – where not "
                  "measured). Start: the CA state regrown from (\"saved\": the biped's as the "
                  "paper's code saved it; \"alpha 1\": the grid alone; \"grown\": the state an "
-                 "NCA evolved to grow the robot from its seed grew, `--damage seed`).", "")
+                 "NCA evolved to grow the robot from its seed grew, `--damage seed`). Wall "
+                 "time: the generations' own, summed over the row's runs (metrics.csv), each "
+                 "run one process on one core.", "")
         if under_way:
             self.add("Under way, not counted: " + ", ".join(
                 f"{_rel(run.folder, Path(self.args.root))} (generation {run.generations} of "
@@ -739,7 +744,8 @@ class Report:
         engine = {role: (_spread(row.engine_distance(root, measured, role), ".3g"),
                          _spread(row.engine_percent(root, measured, role), ".0f", " %"))
                   for role in ("original", "damaged", "regrown")}
-        self.add(f"| {row.robot.capitalize()} ({net}) | {row.start} | {len(row.runs)} ({ga}) | "
+        self.add(f"| {row.robot.capitalize()} ({net}) | {row.start} | {len(row.runs)} ({ga}, "
+                 f"{row.hours:.2g} h) | "
                  f"{similarity}{paper(theirs and theirs['similarity'])} | "
                  f"{ours['original'][0]} / {engine['original'][0]}"
                  f"{paper(theirs and format(theirs['original'], 'g'))} | "
@@ -874,8 +880,8 @@ class Report:
             net = mine[0].config["task"]["nca"]["kind"]
             alone = [r for r in self.runs.get(f"3d_{net}", []) if r.complete]
             self.add(f"**{condition}** (damage: {_damage_name(damage)})", "",
-                     "| run | GA (pop × gens done) | cell cost, regrown weight | fitness | "
-                     "similarity after the damage (of 729) | after random cuts: mean (min) | "
+                     "| run | GA (pop × gens done), wall time | cell cost, regrown weight | "
+                     "fitness | similarity after the damage (of 729) | after random cuts: mean (min) | "
                      "original / damaged / regrown (% of original) | in the paper's engine |",
                      "|---|---|---|---|---|---|---|---|")
             reports = {}
@@ -922,7 +928,7 @@ class Report:
                       for v in values[1:]]
             return " / ".join([fmt_distance(values[0], 3), *shares])
         self.add(f"| {run.condition} seed {run.seed} | {run.config['ga']['population']} × "
-                 f"{run.generations_done}{under_way} | {weights} | {run.best_fitness:.4g} | "
+                 f"{run.generations_done}{under_way}, {run.elapsed / 3600:.2g} h | {weights} | {run.best_fitness:.4g} | "
                  f"{report.similarity[damage]} | {np.mean(cuts):.1f} ({min(cuts)}) | "
                  f"{walks([distance[r] for r in ('original', 'damaged', 'regrown')])} | "
                  f"{walks(engine)} |")
@@ -1055,8 +1061,10 @@ class Report:
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(description="Write docs/results.md and docs/results/*.png "
                                      "from the results runs and the shipped assets.")
-    parser.add_argument("--root", type=Path, default=ex.DEFAULT_ROOT,
-                        help=f"results folder (default {ex.DEFAULT_ROOT})")
+    parser.add_argument("--root", type=Path, default=RECORDS,
+                        help=f"results folder (default {_rel(RECORDS, ROOT)}, the records of "
+                             f"docs/results.md; scripts/paper_experiments.py runs into "
+                             f"{ex.DEFAULT_ROOT})")
     parser.add_argument("--assets", type=Path, default=ROOT / "assets", help="assets folder")
     parser.add_argument("--out", type=Path, default=ROOT / "docs" / "results.md",
                         help="the Markdown file (default docs/results.md)")

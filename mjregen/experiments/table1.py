@@ -11,6 +11,7 @@ original, damaged and regrown robot once (`measure_in_engine`); the distances ar
 
 from __future__ import annotations
 
+import csv
 import functools
 import json
 import math
@@ -58,6 +59,8 @@ class Table1Run:
       seed: the GA's seed.
       population, generations, planned: the GA's population, the generations it ran and
         the generations it was started for.
+      elapsed: s of wall time its generations took (metrics.csv's last ``elapsed``; one
+        process on one core for the runs of records/paper).
       recovery: its recovery.json (similarity, distances in voxel lengths, percentages);
         None while it is under way.
     """
@@ -70,6 +73,7 @@ class Table1Run:
     population: int
     generations: int
     planned: int
+    elapsed: float
     recovery: dict | None
 
 
@@ -93,20 +97,27 @@ def _paper_cut_runs(root: str | Path) -> list[Table1Run]:
         task = config["task"]
         if task.get("damage") != PAPER_CUT:
             continue
-        generations = 0
-        if (folder / "metrics.csv").is_file():
-            with (folder / "metrics.csv").open() as metrics:
-                generations = max(sum(1 for _ in metrics) - 1, 0)
+        generations, elapsed = _progress(folder / "metrics.csv")
         recovery = folder / "recovery.json"
         runs.append(Table1Run(folder=folder, robot=folder.parent.name.split("_")[0],
                               net=task["nca"]["kind"], start=task.get("start", "?"),
                               seed=int(config["seed"]),
                               population=int(config["ga"]["population"]),
                               generations=generations,
-                              planned=int(config["ga"]["generations"]),
+                              planned=int(config["ga"]["generations"]), elapsed=elapsed,
                               recovery=json.loads(recovery.read_text())
                               if recovery.is_file() else None))
     return runs
+
+
+def _progress(metrics: Path) -> tuple[int, float]:
+    """(generations done, s of wall time they took) of a run's metrics.csv; (0, 0.0) before
+    its first generation."""
+    if not metrics.is_file():
+        return 0, 0.0
+    with metrics.open() as lines:
+        rows = list(csv.DictReader(lines))
+    return len(rows), float(rows[-1]["elapsed"]) if rows else 0.0
 
 
 @dataclass(frozen=True)
@@ -122,6 +133,11 @@ class Table1Row:
     def grid_cells(self) -> int:
         """Cells of the robot's grid (729 for the paper's 9 x 9 x 9)."""
         return int(self.runs[0].recovery["grid_cells"])
+
+    @property
+    def hours(self) -> float:
+        """Wall time of the row's runs, summed (h)."""
+        return sum(run.elapsed for run in self.runs) / 3600
 
     def similarity(self) -> Spread:
         """Cells of the regrown grid equal to the original's."""

@@ -496,6 +496,14 @@ def test_the_records_of_a_results_folder_regenerate_its_report(results, tmp_path
     assert reports[1] == reports[0]
 
 
+def test_the_report_by_default_is_docs_results_md_from_the_records_in_git():
+    repository = Path(results_report.__file__).resolve().parents[1]
+    args = results_report.build_parser().parse_args([])
+    assert args.root == repository / "records" / "paper"
+    assert args.out == repository / "docs" / "results.md"
+    assert sorted(p.name for p in args.root.glob("3d_*")) == ["3d_ff", "3d_lstm"]
+
+
 def test_results_report_on_nothing_says_not_run(tmp_path):
     out = tmp_path / "results.md"
     assert results_report.main(["--root", str(tmp_path / "none"), "--assets", str(tmp_path),
@@ -570,7 +578,7 @@ def test_grow_regrow_runs_are_judged_beside_growth_only_runs_here_and_in_the_eng
     text = out.read_text()
     row = next(line for line in text.splitlines() if line.startswith("| grow_regrow_walk_ff seed 0"))
     assert "| 0, 0.5 |" in row and f"| {robots['original'].n_voxels} / " in row
-    alone = next(line for line in text.splitlines() if line.startswith("| 3d_ff seed 1 | 4 × 2 |"))
+    alone = next(line for line in text.splitlines() if line.startswith("| 3d_ff seed 1 | 4 × 2, "))
     assert "| growth only |" in alone
     # the same NCA judged twice: the same regrowth, the same walks, the same engine distances
     assert row.split(" | ")[3:] == alone.split(" | ")[3:]
@@ -604,7 +612,7 @@ def test_a_grow_regrow_condition_is_judged_after_its_own_damage_and_so_are_the_o
     assert "**grow_regrow_half_ff** (damage: each robot's own lower half" in text
     table = text.split("**grow_regrow_half_ff**")[1]
     row = next(line for line in table.splitlines() if line.startswith("| grow_regrow_half_ff"))
-    alone = next(line for line in table.splitlines() if line.startswith("| 3d_ff seed 1 | 4 × 2 |"))
+    alone = next(line for line in table.splitlines() if line.startswith("| 3d_ff seed 1 | 4 × 2, "))
     assert row.split(" | ")[3:] == alone.split(" | ")[3:]  # the same NCA, the same damage
     assert f"| {half['original'].n_voxels} / {half['damaged'].n_voxels} (" in row
 

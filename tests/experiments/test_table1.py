@@ -47,7 +47,7 @@ def fake_run(root: Path, name: str, seed: int, *, net="ff", start="saved", damag
     (folder / "config.json").write_text(json.dumps({
         "seed": seed, "ga": {"population": 8, "generations": 2},
         "task": {"task": "regrowth", "nca": {"kind": net}, "start": start, "damage": damage}}))
-    (folder / "metrics.csv").write_text("generation,best\n0,1\n1,2\n")
+    (folder / "metrics.csv").write_text("generation,best,elapsed\n0,1,1800\n1,2,3600\n")
     roles = ("original", "damaged", "regrown")
     for role, n in zip(roles, voxels):
         np.save(folder / f"{role}.npy", _grid(n))
@@ -125,7 +125,7 @@ def test_the_report_shows_each_rows_spread_beside_the_papers_table(root, tmp_pat
     text = out.read_text()
     biped = next(line for line in text.splitlines() if line.startswith("| Biped (feed-forward) | saved"))
     cells = [c.strip() for c in biped.strip("|").split("|")]
-    assert cells[2] == "3 (8 × 2)"
+    assert cells[2] == "3 (8 × 2, 3 h)"  # each run's wall time: 1 h
     assert cells[3] == "710 (700–720) / 718"  # the paper's similarity beside ours
     assert cells[4] == "40 / 40 / 40.4"
     assert cells[5] == "50 % / 75 % / 67 %"
