@@ -176,8 +176,9 @@ def prepare_folder(out: Path, config: dict, *, resume: bool, force: bool,
         return (out / checkpoint).is_file()
     if out.exists() and _contents(out):
         if not force:
-            raise RunFolderError(f"{out} is not empty; pass resume to continue the run in it "
-                                 "or force to delete it and start again")
+            raise RunFolderError(f"{out} is not empty; continue the run in it (resume=True; "
+                                 "mjregen: --resume) or delete it and start again (force=True; "
+                                 "--force)")
         _check_deletable(out)
         for path in _contents(out):
             shutil.rmtree(path) if path.is_dir() and not path.is_symlink() else path.unlink()

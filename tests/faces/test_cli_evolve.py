@@ -47,7 +47,8 @@ def test_evolve_writes_a_run_and_resume_with_no_flags(tmp_path, capsys):
                  "--quiet"]) == 1
     assert "--timestep-rule stiffest_bond (run has network)" in capsys.readouterr().err
     assert main(["evolve", *TINY, "--gens", "2", "--out", str(out)]) == 1
-    assert "not empty" in capsys.readouterr().err
+    error = capsys.readouterr().err
+    assert "not empty" in error and "--resume" in error and "--force" in error
 
 
 def test_sigkill_mid_run_then_resume_equals_an_uninterrupted_run(tmp_path):
