@@ -33,7 +33,10 @@ Nothing that exists is replaced without --overwrite.
 Examples:
   python scripts/ship_assets.py --best --walkers
   python scripts/ship_assets.py --best --condition 3d_ff --overwrite --replace-default
-  python scripts/ship_assets.py --root runs/paper --best --voxelyze DIR --overwrite
+  python scripts/ship_assets.py --root records/paper --best --voxelyze DIR --overwrite
+
+Ship from records/ (the runs kept in git, scripts/snapshot_runs.py), so that each entry's
+source run can be traced; tests/test_assets.py checks it.
 """
 
 from __future__ import annotations

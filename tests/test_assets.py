@@ -182,3 +182,18 @@ def test_shipped_walkers_keep_their_walk_from_fresh_starts_and_turned(name):
     assert record["finer_step"] == pytest.approx(np.mean(record["finer_step_distances"]))
     assert record["finer_step"] >= KEEP * distance
     assert record["engine"] >= ENGINE * distance
+
+
+@pytest.mark.parametrize("key", REAL or [NO_REAL])
+def test_shipped_nca_is_its_source_runs_recorded_best(key):
+    """A shipped NCA's source run is kept in git (records/), whose best NCA of the stated
+    generation is the shipped genome: anyone can trace it to its evolution."""
+    if key == NO_REAL:
+        assert MANIFEST["walker_3d.npz"]["placeholder"] is True
+        return
+    source = MANIFEST[key]["source"]
+    record = ASSETS.parent / source["run"] / source["file"]
+    assert source["run"].startswith("records/") and record.is_file(), (
+        f"{key}: its source {source['run']} is not a record in git")
+    with np.load(NCA_DIR / key) as shipped, np.load(record) as recorded:
+        np.testing.assert_array_equal(shipped["genome"], recorded["genome"])
