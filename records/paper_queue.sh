@@ -8,7 +8,8 @@
 # keeps every run of runs/paper with a generation done in records/paper (scripts/snapshot_runs.py);
 #   bash records/paper_queue.sh report ENGINE
 # walks the records' new robots in the paper's engine (ENGINE: its folder, benchmarks/transfer.py
-# --voxelyze) and regenerates docs/results.md from the records.
+# --voxelyze), writes the page of the GA against MAP-Elites for the seeds both methods have
+# started, and regenerates docs/results.md from the records.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 resume() { if [ -f "$1/config.json" ]; then echo --resume; fi; }
@@ -96,6 +97,15 @@ case "${1:-}" in
         engine=${2:?usage: bash records/paper_queue.sh report ENGINE_FOLDER}
         python benchmarks/transfer.py --voxelyze "$engine" --each-run records/paper \
             --grow-regrow records/paper --table1 records/paper --json records/paper/transfer.json
+        qd_seeds=$(for s in 0 1 2; do
+            [ -d records/paper/qd/ga/seed_$s/evaluations ] &&
+                [ -d records/paper/qd/map-elites/seed_$s/evaluations ] && echo "$s"
+        done || true)
+        if [ -n "$qd_seeds" ]; then  # the seeds both methods have started
+            # shellcheck disable=SC2086  # one seed a word
+            python scripts/qd_comparison.py --root records/paper/qd --seeds $qd_seeds \
+                --pop 100 --gens 300 --report --docs docs/results
+        fi
         python scripts/results_report.py --root records/paper
         ;;
     *)

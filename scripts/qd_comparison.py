@@ -251,7 +251,9 @@ def write_markdown(args: argparse.Namespace, rows: dict, farthest: float) -> Non
         "|---|---|---|---|---|---|---|---|",
     ]
     for (method, seed), r in sorted(rows.items()):
-        lines.append(f"| {method} | {seed} | {r['evaluations']} | {r['best']:.2f} | "
+        under_way = ("" if r["evaluations"] >= args.pop * args.gens
+                     else f" of {args.pop * args.gens} (under way)")
+        lines.append(f"| {method} | {seed} | {r['evaluations']}{under_way} | {r['best']:.2f} | "
                      f"{r['qd_score']:.0f} | {r['coverage']:.1%} | {r['walking']} | "
                      f"{r['distance']:.2f} |")
     for method in METHODS:
@@ -260,6 +262,9 @@ def write_markdown(args: argparse.Namespace, rows: dict, farthest: float) -> Non
         lines.append(f"| **{method} mean** | | | {values['best'].mean():.2f} | "
                      f"{values['qd_score'].mean():.0f} | {values['coverage'].mean():.1%} | "
                      f"{values['walking'].mean():.1f} | |")
+    if any(r["evaluations"] < args.pop * args.gens for r in rows.values()):
+        lines += ["", "Runs under way count the evaluations they have made; the curves end where "
+                  "the shortest run of each method stands."]
     small = {m: np.mean([rows[(m, s)]["small"] for s in args.seeds]) for m in METHODS}
     lines += ["", f"Share of the evaluations that are small robots (at most {SMALL} voxels): "
               + ", ".join(f"{m} {small[m]:.0%}" for m in METHODS) + ". The QD score counts "

@@ -42,7 +42,14 @@ def test_qd_records_give_the_same_report_and_resume_without_evaluating(tmp_path)
         assert ([p.name for p in sorted((record / "evaluations").iterdir())]
                 == [p.name for p in sorted((runs / record.parent.name / "seed_0"
                                             / "evaluations").iterdir())])
-    assert report_text(records, tmp_path / "from_records") == report_text(runs, tmp_path / "full")
+    full = report_text(records, tmp_path / "from_records")
+    assert full == report_text(runs, tmp_path / "full") and "under way" not in "\n".join(full)
+    # runs planned longer than they have gone are reported as under way
+    longer = ["--root", str(records), "--docs", str(tmp_path / "longer"), "--report",
+              *TINY[:-1], "--gens", "5"]
+    assert qd_comparison.main(longer) == 0
+    page = (tmp_path / "longer" / "quality_diversity.md").read_text()
+    assert "| ga | 0 | 12 of 20 (under way) |" in page and "Runs under way count" in page
     # the records, restored, resume to the same runs without a single evaluation
     restored = tmp_path / "restored"
     shutil.copytree(records, restored)
