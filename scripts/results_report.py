@@ -695,9 +695,9 @@ class Report:
     def table1_runs(self, paper_rows: list[dict]) -> None:
         """Table 1 from the regrowth runs under <root>/table1 (`mjregen.experiments.table1`):
         each row's mean and range over its seeds, here and in the paper's engine."""
-        from mjregen.experiments.table1 import (ENGINE_FILE, list_table1_runs,
-                                                read_engine_distances, runs_under_way,
-                                                table1_rows)
+        from mjregen.experiments.table1 import (ENGINE_FILE, all_run_folders, list_table1_runs,
+                                                read_engine_distances, run_progress,
+                                                runs_under_way, table1_rows)
 
         rows = table1_rows(list_table1_runs(self.args.root))
         under_way = runs_under_way(self.args.root)
@@ -717,6 +717,11 @@ class Report:
         for row in rows:
             theirs = paper.get((row.robot, "recurrent" if row.net == "lstm" else "feed forward"))
             self._table1_row(row, theirs, measured)
+        folders = all_run_folders(self.args.root)
+        hours = sum(run_progress(folder / "metrics.csv")[1] for folder in folders) / 3600
+        self.facts.append(f"Table 1 at the paper's scale: {len(folders)} runs, those that grow "
+                          f"a robot from its seed and those under way included, {hours:.2g} h "
+                          "of wall time.")
         self.add("", "Distances in voxel lengths over 0.5 s, from the fitness's start (ours) and "
                  "in the paper's engine as its code runs it (`python benchmarks/transfer.py "
                  f"--voxelyze DIR --table1 ROOT`, kept in ROOT/{ENGINE_FILE}; – where not "
@@ -891,6 +896,9 @@ class Report:
             self.add("")
             self._self_regrowth_comparison(condition, [r for r in mine if r.complete], alone,
                                            reports)
+            self.facts.append(f"{condition}: {len(mine)} run{'s' * (len(mine) != 1)} "
+                              f"({sum(r.complete for r in mine)} finished), "
+                              f"{sum(r.elapsed for r in mine) / 3600:.2g} h of wall time.")
         self.add("Random cuts: " + ", ".join(f"`{k}`" for k in cuts) + ". Distances in "
                  "voxel lengths over 0.5 s from the fitness's start (ours) and as the paper's "
                  "code runs its engine (`python benchmarks/transfer.py --voxelyze DIR "

@@ -77,6 +77,13 @@ class Table1Run:
     recovery: dict | None
 
 
+def all_run_folders(root: str | Path) -> list[Path]:
+    """Every run folder under ``root/table1``, the runs that grow a robot from its seed (the
+    source of a "grown" start) included."""
+    return [folder for folder in sorted(Path(root, FOLDER).glob("*/seed_*"))
+            if (folder / "config.json").is_file()]
+
+
 def list_table1_runs(root: str | Path) -> list[Table1Run]:
     """Every finished run under ``root/table1`` that regrows the paper's cut, in folder order."""
     return [run for run in _paper_cut_runs(root) if run.recovery is not None]
@@ -90,14 +97,12 @@ def runs_under_way(root: str | Path) -> list[Table1Run]:
 
 def _paper_cut_runs(root: str | Path) -> list[Table1Run]:
     runs = []
-    for folder in sorted(Path(root, FOLDER).glob("*/seed_*")):
-        if not (folder / "config.json").is_file():
-            continue
+    for folder in all_run_folders(root):
         config = json.loads((folder / "config.json").read_text())
         task = config["task"]
         if task.get("damage") != PAPER_CUT:
             continue
-        generations, elapsed = _progress(folder / "metrics.csv")
+        generations, elapsed = run_progress(folder / "metrics.csv")
         recovery = folder / "recovery.json"
         runs.append(Table1Run(folder=folder, robot=folder.parent.name.split("_")[0],
                               net=task["nca"]["kind"], start=task.get("start", "?"),
@@ -110,9 +115,9 @@ def _paper_cut_runs(root: str | Path) -> list[Table1Run]:
     return runs
 
 
-def _progress(metrics: Path) -> tuple[int, float]:
+def run_progress(metrics: Path) -> tuple[int, float]:
     """(generations done, s of wall time they took) of a run's metrics.csv; (0, 0.0) before
-    its first generation."""
+    its first generation (or without the file)."""
     if not metrics.is_file():
         return 0, 0.0
     with metrics.open() as lines:

@@ -580,6 +580,8 @@ def test_grow_regrow_runs_are_judged_beside_growth_only_runs_here_and_in_the_eng
     assert "| 0, 0.5 |" in row and f"| {robots['original'].n_voxels} / " in row
     alone = next(line for line in text.splitlines() if line.startswith("| 3d_ff seed 1 | 4 × 2, "))
     assert "| growth only |" in alone
+    hours = ex.read_run(run).elapsed / 3600
+    assert f"- grow_regrow_walk_ff: 1 run (1 finished), {hours:.2g} h of wall time." in text
     # the same NCA judged twice: the same regrowth, the same walks, the same engine distances
     assert row.split(" | ")[3:] == alone.split(" | ")[3:]
     assert ("(grow_regrow_walk_ff) against growth-only NCAs of the same evaluations, the "

@@ -136,3 +136,6 @@ def test_the_report_shows_each_rows_spread_beside_the_papers_table(root, tmp_pat
     lstm = next(line for line in text.splitlines() if line.startswith("| Biped (LSTM) | saved"))
     assert "| 40 / – | 50 % / – | 30, 75 % | –, – | – |" in lstm  # no engine walk, no paper row
     assert "Under way, not counted: table1/biped_ff/seed_3 (generation 2 of 2)." in text
+    # compute: all 7 run folders, the one that grows the tripod from its seed included
+    assert ("Table 1 at the paper's scale: 7 runs, those that grow a robot from its seed and "
+            "those under way included, 7 h of wall time.") in text
