@@ -643,7 +643,9 @@ class Report:
                  "regrown robots walk with the same physics (the paper: 0.5 s).", "")
         found = ex.list_regen_runs(self.args.root)
         if not found:
-            self.add("Ours: not run (`python scripts/paper_experiments.py --only regen`).", "")
+            self.add(f"Ours, of the walkers evolved here: not run on `{_rel(self.args.root, ROOT)}` "
+                     f"(`python scripts/paper_experiments.py --root {_rel(self.args.root, ROOT)} "
+                     "--only regen`). Table 1 below regrows the paper's own robots.", "")
         else:
             self.add("**Ours**", "",
                      "| walker (regrowth network) | similarity | robot cells matching | voxels orig./dam./regr. | "
