@@ -698,8 +698,8 @@ class Report:
         """Table 1 from the regrowth runs under <root>/table1 (`mjregen.experiments.table1`):
         each row's mean and range over its seeds, here and in the paper's engine."""
         from mjregen.experiments.table1 import (ENGINE_FILE, all_run_folders, list_table1_runs,
-                                                read_engine_distances, run_progress,
-                                                runs_under_way, table1_rows)
+                                                read_engine_distances, runs_under_way,
+                                                table1_rows)
 
         rows = table1_rows(list_table1_runs(self.args.root))
         under_way = runs_under_way(self.args.root)
@@ -720,7 +720,7 @@ class Report:
             theirs = paper.get((row.robot, "recurrent" if row.net == "lstm" else "feed forward"))
             self._table1_row(row, theirs, measured)
         folders = all_run_folders(self.args.root)
-        hours = sum(run_progress(folder / "metrics.csv")[1] for folder in folders) / 3600
+        hours = sum(ex.read_run(folder).elapsed for folder in folders) / 3600
         self.facts.append(f"Table 1 at the paper's scale: {len(folders)} runs, those that grow "
                           f"a robot from its seed and those under way included, {hours:.2g} h "
                           "of wall time.")

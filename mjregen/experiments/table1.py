@@ -11,7 +11,6 @@ original, damaged and regrown robot once (`measure_in_engine`); the distances ar
 
 from __future__ import annotations
 
-import csv
 import functools
 import json
 import math
@@ -22,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from mjregen.experiments.engine_walks import read_kept, walk_new
+from mjregen.experiments.paper import read_run
 from mjregen.experiments.recovery import ROLES
 from mjregen.grid import Robot
 from mjregen.validation.engine import PaperEngine
@@ -102,27 +102,18 @@ def _paper_cut_runs(root: str | Path) -> list[Table1Run]:
         task = config["task"]
         if task.get("damage") != PAPER_CUT:
             continue
-        generations, elapsed = run_progress(folder / "metrics.csv")
+        progress = read_run(folder)
         recovery = folder / "recovery.json"
         runs.append(Table1Run(folder=folder, robot=folder.parent.name.split("_")[0],
                               net=task["nca"]["kind"], start=task.get("start", "?"),
                               seed=int(config["seed"]),
                               population=int(config["ga"]["population"]),
-                              generations=generations,
-                              planned=int(config["ga"]["generations"]), elapsed=elapsed,
+                              generations=progress.generations_done,
+                              planned=progress.generations_planned, elapsed=progress.elapsed,
                               recovery=json.loads(recovery.read_text())
                               if recovery.is_file() else None))
     return runs
 
-
-def run_progress(metrics: Path) -> tuple[int, float]:
-    """(generations done, s of wall time they took) of a run's metrics.csv; (0, 0.0) before
-    its first generation (or without the file)."""
-    if not metrics.is_file():
-        return 0, 0.0
-    with metrics.open() as lines:
-        rows = list(csv.DictReader(lines))
-    return len(rows), float(rows[-1]["elapsed"]) if rows else 0.0
 
 
 @dataclass(frozen=True)
