@@ -5,7 +5,8 @@
 # Every command resumes its run folder where one exists; a finished run returns at once, so
 # both lines can be started again after any interruption. A failing command stops its line.
 #   bash records/paper_queue.sh snapshot
-# keeps every run of runs/paper with a generation done in records/paper (scripts/snapshot_runs.py);
+# keeps every run of runs/paper that is finished or has run half an hour in records/paper
+# (scripts/snapshot_runs.py);
 #   bash records/paper_queue.sh report ENGINE
 # walks the records' new robots in the paper's engine (ENGINE: its folder, benchmarks/transfer.py
 # --voxelyze), writes the page of the GA against MAP-Elites for the seeds both methods have
@@ -50,10 +51,21 @@ grow_regrow() {  # CUT SEED: one NCA that grows and regrows, judged by function;
         --net ff --preset 3d --seed "$2" --backend serial --quiet --out "$out" $(resume "$out")
 }
 
-started() {  # the run folders among the arguments with a generation (an iteration) done
+KEEP_AFTER_S=1800  # an unfinished run is kept once its generations took this long
+started() {  # the run folders among the arguments that are finished, or have run KEEP_AFTER_S
+    # (a younger run's checkpoint, up to 22 MB, would cost git more than its rerun costs)
     local run
     for run in "$@"; do
-        if [ -f "$run/metrics.csv" ] && [ "$(wc -l < "$run/metrics.csv")" -gt 1 ]; then
+        if [ -f "$run/metrics.csv" ] && python - "$run" "$KEEP_AFTER_S" <<'PY'
+import csv, json, sys
+run, keep_after = sys.argv[1], float(sys.argv[2])
+with open(f"{run}/metrics.csv", newline="") as handle:
+    rows = list(csv.DictReader(handle))
+config = json.load(open(f"{run}/config.json"))
+planned = config["ga"]["generations"] if "ga" in config else config["map_elites"]["iterations"]
+sys.exit(0 if rows and (len(rows) >= planned or float(rows[-1]["elapsed"]) >= keep_after) else 1)
+PY
+        then
             echo "$run"
         fi
     done
