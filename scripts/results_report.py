@@ -907,20 +907,22 @@ class Report:
                  f"--grow-regrow ROOT`, kept in ROOT/{ENGINE_FILE}; – where not measured).", "")
 
     def _nca_and_walk(self, run: ex.RunInfo) -> tuple:
-        """(best NCA, physics, duration) of a run, for `self_regrowth_report`."""
+        """(best NCA, physics, duration, start seed) of a run, for `self_regrowth_report`:
+        its robots walk as its fitness did."""
         from mjregen.growth.checkpoint import load_nca
         from mjregen.tasks.locomotion import LocomotionTask
 
         task = LocomotionTask.from_config({**run.config["task"], "task": "locomotion"})
-        return load_nca(run.best_files()[0])[0], task.physics, task.duration
+        return load_nca(run.best_files()[0])[0], task.physics, task.duration, task.start_seed
 
     def _self_regrowth_row(self, run: ex.RunInfo, damage: str, measured: dict):
         """A run's row of the grow-regrow table, its NCA judged after `damage`; returns the
         `SelfRegrowthReport`."""
         from mjregen.experiments.self_regrowth import engine_key, self_regrowth_report
 
-        nca, physics, duration = self._nca_and_walk(run)
-        report = self_regrowth_report(nca, physics=physics, duration=duration, damage=damage)
+        nca, physics, duration, start_seed = self._nca_and_walk(run)
+        report = self_regrowth_report(nca, physics=physics, duration=duration, damage=damage,
+                                      start_seed=start_seed)
         task = run.config["task"]
         distance = report.recovery.distance
         cuts = [v for k, v in report.similarity.items() if k != damage]

@@ -88,19 +88,22 @@ class RecoveryReport:
 
 
 def measure_recovery(robots: dict[str, Robot], *, physics: Physics | None = None,
-                     duration: float | None = None) -> RecoveryReport:
+                     duration: float | None = None, start_seed: int = 0) -> RecoveryReport:
     """Simulate the three robots (keys `ROLES`) and compare them with the original.
 
     Args:
       robots: {"original": ..., "damaged": ..., "regrown": ...}, all of one grid shape.
       physics: None = the default physics.
       duration: s of walking; None = the scene's measured time (the paper's 0.5 s in 3D).
+      start_seed: the seed of the start (start 0) each robot walks from
+        (`mjregen.physics.simulate`); an evolved robot's own fitness walked from its run's.
     """
     missing = [role for role in ROLES if role not in robots]
     if missing:
         raise ValueError(f"measure_recovery needs robots for {', '.join(missing)}")
     physics = Physics() if physics is None else physics
-    results = {role: simulate(robots[role], physics=physics, duration=duration) for role in ROLES}
+    results = {role: simulate(robots[role], physics=physics, duration=duration,
+                              start_seed=start_seed) for role in ROLES}
     original = robots["original"].grid
     grids = np.stack([robots[role].grid for role in ROLES])
     equal = similarity(grids, original)

@@ -61,10 +61,11 @@ def random_cuts(count: int, *, dim: int, grid_size: int, seed: int = 0) -> list[
 
 def self_regrowth_report(nca: NCA, *, physics: Physics | None = None,
                          duration: float | None = None, cuts: list[str] | None = None,
-                         damage: str = PAPER_CUT) -> SelfRegrowthReport:
+                         damage: str = PAPER_CUT, start_seed: int = 0) -> SelfRegrowthReport:
     """Grow `nca`'s robot, cut it (`damage`: "paper", "half" or a half-space, and `cuts`;
     default 8 `random_cuts`), regrow each with the same NCA, and walk the original, damaged
-    and regrown robots of `damage`."""
+    and regrown robots of `damage` from start 0 of `start_seed` (an evolved NCA's: its run's,
+    the start its fitness walked)."""
     config = nca.config
     cuts = random_cuts(8, dim=config.dim, grid_size=config.grid_size) if cuts is None else cuts
     growth = nca.grow()
@@ -75,7 +76,8 @@ def self_regrowth_report(nca: NCA, *, physics: Physics | None = None,
     robots = _cut_robots(config, growth, regrown[damage], damage)
     return SelfRegrowthReport(cells=int(growth.grids[0].size), damage=damage,
                               similarity=similarity,
-                              recovery=measure_recovery(robots, physics=physics, duration=duration))
+                              recovery=measure_recovery(robots, physics=physics, duration=duration,
+                                                        start_seed=start_seed))
 
 
 def self_regrowth_robots(nca: NCA, growth: Growth | None = None, damage: str = PAPER_CUT
