@@ -902,7 +902,8 @@ class Report:
                               f"({sum(r.complete for r in mine)} finished), "
                               f"{sum(r.elapsed for r in mine) / 3600:.2g} h of wall time.")
         self.add("Random cuts: " + ", ".join(f"`{k}`" for k in cuts) + ". Distances in "
-                 "voxel lengths over 0.5 s from the fitness's start (ours) and as the paper's "
+                 "voxel lengths over 0.5 s from the fitness's start (ours: start 0 of each "
+                 "run's own start seed, as its fitness walked) and as the paper's "
                  "code runs its engine (`python benchmarks/transfer.py --voxelyze DIR "
                  f"--grow-regrow ROOT`, kept in ROOT/{ENGINE_FILE}; – where not measured).", "")
 
