@@ -2,7 +2,10 @@
 """GA against MAP-Elites at equal evaluations on 3D feed-forward NCAs: runs, then the report.
 
 Each method runs once per seed into <root>/<method>/seed_<n> (`mjregen evolve` run folders,
-resumable: run the same command again after a kill). Every evaluation of every run is also
+resumable: run the same command again after a kill), its walks from starts seeded by that
+seed as `mjregen evolve --seed n` seeds them: the GA run of seed n at the paper's 3D settings
+(--pop 100 --gens 300) is the evolution of `mjregen evolve --dim 3 --net ff --preset 3d
+--seed n`. Every evaluation of every run is also
 recorded (its robot, fitness and distance) in <run>/evaluations/NNNN.npz, so that the GA's
 robots can be placed in the same archive as MAP-Elites' (the same descriptors and cells).
 
@@ -100,7 +103,8 @@ def run_all(args: argparse.Namespace) -> None:
         for seed in args.seeds:
             for method in METHODS:
                 out = args.root / method / f"seed_{seed}"
-                task = LocomotionTask(nca=nca, physics=Physics())
+                # each run's starts seeded by its seed, as `mjregen evolve` seeds them
+                task = LocomotionTask(nca=nca, physics=Physics(), start_seed=seed)
                 resume = (out / "config.json").is_file()
                 recording = RecordingTask(task, out, finished_steps(out) if resume else 0)
                 start = time.perf_counter()

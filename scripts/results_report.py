@@ -995,6 +995,34 @@ class Report:
         self.add("## " + body[0].lstrip("# "), "", *("#" + line if line.startswith("#") else line
                                                      for line in body[1:]), "")
 
+    def repeated_evolutions(self) -> None:
+        """The comparison's GA runs that are this root's 3D feed-forward runs evolved again
+        (the same GA, task and seed; `scripts/qd_comparison.py` seeds them as `mjregen
+        evolve` does): their best fitness per generation, as far as both have run, must be
+        the same (the same seed gives the same evolution, on another day). One fact each."""
+        from mjregen.tasks.locomotion import LocomotionTask
+
+        root = Path(self.args.root)
+        for again in sorted((root / "qd" / "ga").glob("seed_*")):
+            first = root / "3d_ff" / again.name
+            if not ((again / "config.json").is_file() and (first / "config.json").is_file()):
+                continue
+            runs = [ex.read_run(folder) for folder in (first, again)]
+            tasks = [LocomotionTask.from_config(run.config["task"]) for run in runs]
+            if (runs[0].config["ga"] != runs[1].config["ga"] or runs[0].seed != runs[1].seed
+                    or tasks[0] != tasks[1]):
+                continue
+            n = min(run.generations_done for run in runs)
+            if n == 0:
+                continue
+            same = np.array_equal(runs[0].best[:n], runs[1].best[:n])
+            self.facts.append(
+                f"qd/ga/{again.name} evolves 3d_ff/{again.name} again (the same GA, task and "
+                f"seed, run on another day): the best fitness of its generations 0-{n - 1} is "
+                + ("the same as the first run's in every digit metrics.csv keeps."
+                   if same else "NOT the same as the first run's: the evolution did not "
+                   "repeat."))
+
     def best_transferring(self, prefix: str) -> tuple[ex.RunInfo, dict] | None:
         """(run, its ``transfer.json`` measurement): of the finished runs of the conditions
         whose names start with `prefix`, the one whose best robot transfers and walks
@@ -1120,6 +1148,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         report.regeneration()
         report.self_regrowth()
         report.quality_diversity()
+        report.repeated_evolutions()
         report.discussion()
         path = report.write()
     except (MjregenError, OSError, ValueError) as error:

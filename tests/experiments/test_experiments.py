@@ -504,6 +504,29 @@ def test_the_report_by_default_is_docs_results_md_from_the_records_in_git():
     assert sorted(p.name for p in args.root.glob("3d_*")) == ["3d_ff", "3d_lstm"]
 
 
+def test_the_report_checks_that_an_evolution_run_again_repeated(results, tmp_path):
+    """The GA runs of the GA against MAP-Elites are the 3D feed-forward runs evolved again:
+    the report compares their best fitness generation by generation."""
+    root = tmp_path / "root"
+    shutil.copytree(results, root)
+    for seed in (0, 1):
+        shutil.copytree(root / "3d_ff" / f"seed_{seed}", root / "qd" / "ga" / f"seed_{seed}")
+    metrics = root / "qd" / "ga" / "seed_1" / "metrics.csv"
+    header, first, *rest = metrics.read_text().splitlines()
+    cells = first.split(",")
+    cells[1] = repr(float(cells[1]) + 1.0)  # its generation 0 went otherwise
+    metrics.write_text("\n".join([header, ",".join(cells), *rest]) + "\n")
+    out = tmp_path / "docs" / "results.md"
+    assert results_report.main(["--root", str(root), "--assets", str(tmp_path), "--out", str(out),
+                                "--no-render"]) == 0
+    facts = [line for line in out.read_text().splitlines() if " evolves 3d_ff/" in line]
+    assert len(facts) == 2
+    assert facts[0].startswith("- qd/ga/seed_0 evolves 3d_ff/seed_0 again") and (
+        "generations 0-1 is the same as the first run's" in facts[0])
+    assert facts[1].startswith("- qd/ga/seed_1 evolves 3d_ff/seed_1 again") and (
+        "NOT the same" in facts[1])
+
+
 def test_results_report_on_nothing_says_not_run(tmp_path):
     out = tmp_path / "results.md"
     assert results_report.main(["--root", str(tmp_path / "none"), "--assets", str(tmp_path),
