@@ -764,7 +764,8 @@ class Report:
                  + " |")
         self.facts.append(
             f"Table 1, {row.robot} regrown by {net} NCAs from the {row.start} state "
-            f"(n = {len(row.runs)} run{"s" * (len(row.runs) != 1)}): {similarity} of {row.grid_cells} cells; the regrown "
+            f"(n = {len(row.runs)} run{'s' * (len(row.runs) != 1)}): {similarity} of "
+            f"{row.grid_cells} cells; the regrown "
             "robot walks "
             f"{ours['regrown'][1]} of the original here and {engine['regrown'][1]} in the "
             "paper's engine"
