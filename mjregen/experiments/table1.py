@@ -98,11 +98,11 @@ def runs_under_way(root: str | Path) -> list[Table1Run]:
 def _paper_cut_runs(root: str | Path) -> list[Table1Run]:
     runs = []
     for folder in all_run_folders(root):
-        config = json.loads((folder / "config.json").read_text())
+        progress = read_run(folder)
+        config = progress.config
         task = config["task"]
         if task.get("damage") != PAPER_CUT:
             continue
-        progress = read_run(folder)
         recovery = folder / "recovery.json"
         runs.append(Table1Run(folder=folder, robot=folder.parent.name.split("_")[0],
                               net=task["nca"]["kind"], start=task.get("start", "?"),
@@ -113,7 +113,6 @@ def _paper_cut_runs(root: str | Path) -> list[Table1Run]:
                               recovery=json.loads(recovery.read_text())
                               if recovery.is_file() else None))
     return runs
-
 
 
 @dataclass(frozen=True)
