@@ -52,33 +52,12 @@ grow_regrow() {  # CUT SEED: one NCA that grows and regrows, judged by function;
 }
 
 KEEP_AFTER_S=1800  # an unfinished run is kept once its generations took this long
-started() {  # the run folders among the arguments that are finished, or have run KEEP_AFTER_S
-    # (a younger run's checkpoint, up to 22 MB, would cost git more than its rerun costs)
-    local run
-    for run in "$@"; do
-        if [ -f "$run/metrics.csv" ] && python - "$run" "$KEEP_AFTER_S" <<'PY'
-import csv, json, sys
-run, keep_after = sys.argv[1], float(sys.argv[2])
-with open(f"{run}/metrics.csv", newline="") as handle:
-    rows = list(csv.DictReader(handle))
-config = json.load(open(f"{run}/config.json"))
-planned = config["ga"]["generations"] if "ga" in config else config["map_elites"]["iterations"]
-sys.exit(0 if rows and (len(rows) >= planned or float(rows[-1]["elapsed"]) >= keep_after) else 1)
-PY
-        then
-            echo "$run"
-        fi
-    done
-}
-
-snapshot() {  # FOLDER RUN...: keep the started runs among RUN... in records/paper/FOLDER
+snapshot() {  # FOLDER RUN...: keep the runs among RUN... that are finished or have run
+    # KEEP_AFTER_S in records/paper/FOLDER
     local into=$1
     shift
-    local runs
-    runs=$(started "$@")
-    if [ -n "$runs" ]; then
-        # shellcheck disable=SC2086  # run folders hold no spaces
-        python scripts/snapshot_runs.py --into "records/paper$into" $runs
+    if [ $# -gt 0 ]; then
+        python scripts/snapshot_runs.py --into "records/paper$into" --keep-after "$KEEP_AFTER_S" "$@"
     fi
 }
 

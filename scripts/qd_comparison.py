@@ -26,7 +26,6 @@ Examples:
 from __future__ import annotations
 
 import argparse
-import csv
 import json
 import sys
 import time
@@ -41,6 +40,7 @@ from mjregen.search.backends import make_backend
 from mjregen.search.ga import PRESETS
 from mjregen.search.map_elites import MapElites, MapElitesConfig
 from mjregen.search.qd_runs import run_map_elites
+from mjregen.search.run_folder import read_progress
 from mjregen.search.runs import run_evolution
 from mjregen.search.stats import bootstrap_curves
 from mjregen.tasks.descriptors import default_cells, describe, descriptor_ranges
@@ -219,18 +219,11 @@ def _shown(folder: Path) -> str:
         return str(folder)
 
 
-def run_hours(run: Path) -> float:
-    """Wall time (h) of a run's finished generations (iterations): its metrics.csv's last
-    ``elapsed``."""
-    with open(run / "metrics.csv", newline="") as handle:
-        rows = list(csv.DictReader(handle))
-    return float(rows[-1]["elapsed"]) / 3600 if rows else 0.0
-
-
 def write_markdown(args: argparse.Namespace, rows: dict, farthest: float) -> None:
     config = json.loads((args.root / "map-elites" / f"seed_{args.seeds[0]}" / "config.json").read_text())
     ga_config = json.loads((args.root / "ga" / f"seed_{args.seeds[0]}" / "config.json").read_text())
-    hours = {method: sum(run_hours(args.root / method / f"seed_{seed}") for seed in args.seeds)
+    hours = {method: sum(read_progress(args.root / method / f"seed_{seed}").elapsed
+                         for seed in args.seeds) / 3600
              for method in METHODS}
     lines = [
         "# Quality diversity: the paper's GA against MAP-Elites", "",

@@ -17,11 +17,13 @@ config.json, metrics.csv, best.npz/.npy and, while unfinished, checkpoint.npz
 with every recorded evaluation, from which the comparison's report places its archive
 (the archive.npz of a run, every elite's genome, megabytes, is left out). The copy
 replaces the earlier record. ``--into`` keeps runs of another results root elsewhere (the
-runs of ``runs/paper``: ``--into records/paper``).
+runs of ``runs/paper``: ``--into records/paper``). ``--keep-after S`` leaves out the
+unfinished runs whose steps so far took less than S seconds, and those not started: a young
+run's checkpoint (up to 22 MB) costs git more than running its steps again.
 
 Examples:
   python scripts/snapshot_runs.py runs/results/3d_lstm/seed_0 runs/results/walkers
-  python scripts/snapshot_runs.py --into records/paper runs/paper/3d_ff/seed_*
+  python scripts/snapshot_runs.py --into records/paper --keep-after 1800 runs/paper/3d_ff/seed_*
 """
 
 from __future__ import annotations
@@ -38,7 +40,7 @@ import numpy as np
 
 from mjregen.experiments.paper import RunInfo, read_run
 from mjregen.growth.checkpoint import load_nca
-from mjregen.search.run_folder import read_metrics
+from mjregen.search.run_folder import RunFolderError, read_progress
 
 ROOT = Path(__file__).resolve().parents[1]
 DESTINATION = ROOT / "records" / "results"
@@ -100,9 +102,8 @@ def snapshot_map_elites(run: Path, destination: Path = QD_DESTINATION) -> Path:
     if missing:
         raise FileNotFoundError(f"{run} has no {', '.join(missing)}: not a MAP-Elites run "
                                 "with an iteration done")
-    iterations = json.loads((run / "config.json").read_text())["map_elites"]["iterations"]
     names = list(MAP_ELITES_FILES)
-    if len(read_metrics(run / "metrics.csv", "iteration", iterations)) < iterations:
+    if not read_progress(run).complete:
         if not (run / "checkpoint.npz").is_file():
             raise FileNotFoundError(f"{run} has no checkpoint.npz: nothing to resume")
         names.append("checkpoint.npz")
@@ -172,6 +173,16 @@ def snapshot(run: Path, destination: Path = DESTINATION) -> Path:
     return _replace(destination / run.parent.name / run.name, fill)
 
 
+def _too_young(run: Path, keep_after: float) -> bool:
+    """Is `run` unfinished with its steps so far taking less than `keep_after` s (says so)?"""
+    progress = read_progress(run)
+    if progress.complete or progress.elapsed >= keep_after:
+        return False
+    print(f"{run}: left out, {progress.done} of {progress.planned} {progress.counter}s in "
+          f"{progress.elapsed:.0f} s (--keep-after {keep_after:g})")
+    return True
+
+
 def _shown(path: Path) -> Path:
     """`path` relative to the repository when inside it."""
     return path.relative_to(ROOT) if path.is_relative_to(ROOT) else path
@@ -184,6 +195,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--into", type=Path,
                         help=f"records folder (default: {DESTINATION.relative_to(ROOT)}, and "
                              f"{QD_DESTINATION.relative_to(ROOT)} for quality-diversity runs)")
+    parser.add_argument("--keep-after", type=float, metavar="S",
+                        help="leave out unfinished runs whose steps took less than S seconds "
+                             "of wall time, and runs not started (default: keep every run)")
     args = parser.parse_args(argv)
     into = None if args.into is None else args.into.resolve()
     for run in args.runs:
@@ -191,12 +205,14 @@ def main(argv: list[str] | None = None) -> int:
             if (run / "walkers.json").is_file():
                 print(f"{run} -> {_shown(snapshot_walkers(run, into or DESTINATION))}")
                 continue
+            if args.keep_after is not None and _too_young(run, args.keep_after):
+                continue
             if is_map_elites(run):
                 print(f"{run} -> {_shown(snapshot_map_elites(run, into or QD_DESTINATION))}")
                 continue
             target = snapshot(run, into or (QD_DESTINATION if (run / "evaluations").is_dir()
                                             else DESTINATION))
-        except FileNotFoundError as error:
+        except (FileNotFoundError, RunFolderError) as error:
             print(f"error: {error}", file=sys.stderr)
             return 2
         info = read_run(target)

@@ -17,6 +17,7 @@ import re
 import shutil
 import sys
 import zipfile
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -235,6 +236,53 @@ def read_metrics(path: Path, counter: str, done: int) -> list[dict]:
         raise RunFolderError(f"{path} is not a readable metrics file ({type(error).__name__}: "
                              f"{error}); restore it from a copy, or start again with force"
                              ) from None
+
+
+# a run's optimiser (its config.json section) -> (the section's count of steps, metrics.csv's
+# step column)
+STEP_NAMES = {"ga": ("generations", "generation"), "map_elites": ("iterations", "iteration")}
+
+
+@dataclass(frozen=True)
+class RunProgress:
+    """How far the run in a folder has come, whatever its optimiser.
+
+    Attributes:
+      counter: metrics.csv's step column ("generation" of a GA, "iteration" of MAP-Elites).
+      done: steps listed in metrics.csv, at most `planned`.
+      planned: steps the run's config.json asks for.
+      elapsed: wall time of the listed steps, s (the last row's ``elapsed``; 0 when none).
+    """
+
+    counter: str
+    done: int
+    planned: int
+    elapsed: float
+
+    @property
+    def complete(self) -> bool:
+        return self.done >= self.planned
+
+
+def read_progress(folder: Path) -> RunProgress:
+    """`RunProgress` of the run in `folder`, from its config.json and metrics.csv (none: no
+    step done).
+
+    Raises:
+      RunFolderError: config.json is missing or unreadable, names no optimiser, or
+        metrics.csv cannot be read.
+    """
+    config = read_config(folder / "config.json")
+    section = next((name for name in STEP_NAMES if isinstance(config.get(name), dict)), None)
+    if section is None:
+        raise RunFolderError(f"{folder / 'config.json'} names no optimiser (no "
+                             f"{' or '.join(map(repr, STEP_NAMES))} entry): not a run's "
+                             "configuration")
+    steps, counter = STEP_NAMES[section]
+    planned = int(config[section][steps])
+    rows = read_metrics(folder / "metrics.csv", counter, planned)
+    return RunProgress(counter=counter, done=len(rows), planned=planned,
+                       elapsed=float(rows[-1]["elapsed"]) if rows else 0.0)
 
 
 def check_agreement(out: Path, rows: list[dict], done: int, counter: str) -> None:

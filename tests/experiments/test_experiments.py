@@ -155,6 +155,23 @@ def test_snapshot_command_keeps_a_record_where_into_says(tmp_path, capsys):
     assert f"-> {record} (finished)" in capsys.readouterr().out
 
 
+def test_keep_after_leaves_out_young_unfinished_runs_only(tmp_path, capsys):
+    young, = ex.evolution_jobs(SMOKE, root=tmp_path / "young", conditions=["2d_ff"], runs=1,
+                               generations=3)
+    kill_after(young, 0)
+    done, = ex.evolution_jobs(SMOKE, root=tmp_path / "done", conditions=["2d_ff"], runs=1,
+                              generations=1)
+    ex.run_evolution_job(done, progress=False)
+    into = tmp_path / "records"
+    runs = [str(young.out), str(done.out)]
+    assert snapshot_runs.main(["--into", str(into), "--keep-after", "3600", *runs]) == 0
+    assert f"{young.out}: left out, 1 of 3 generations in" in capsys.readouterr().out
+    assert sorted(p.parent.name for p in into.glob("*/seed_0")) == ["2d_ff"]
+    assert ex.read_run(into / "2d_ff" / "seed_0").complete  # the finished one, from done/
+    assert snapshot_runs.main(["--into", str(into / "all"), "--keep-after", "0", runs[0]]) == 0
+    assert (into / "all" / "2d_ff" / "seed_0" / "checkpoint.npz").is_file()  # young, kept
+
+
 def test_a_snapshot_that_fails_leaves_the_earlier_record_whole(tmp_path):
     record = tmp_path / "records" / "2d_ff" / "seed_0"
     record.mkdir(parents=True)

@@ -72,11 +72,3 @@ def test_qd_records_give_the_same_report_and_resume_without_evaluating(tmp_path)
         snapshot_runs.snapshot_map_elites(restored / "map-elites" / "seed_0", tmp_path / "again")
     with pytest.raises(FileNotFoundError, match="best.npz"):
         snapshot_runs.snapshot_map_elites(ga, tmp_path / "elsewhere")
-
-
-def test_a_runs_hours_are_its_elapsed_column_wherever_that_stands(tmp_path):
-    # the GA's metrics.csv has columns after `elapsed` (its best robot's distances)
-    (tmp_path / "metrics.csv").write_text(
-        "generation,best,evaluations,wall_time,elapsed,best_distance_min,best_distance_std\n"
-        "0,1.0,4,1800.0,1800.0,2.5,0\n1,1.5,4,1800.0,3600.0,2.5,0\n")
-    assert qd_comparison.run_hours(tmp_path) == 1.0

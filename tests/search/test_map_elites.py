@@ -14,7 +14,7 @@ from mjregen.growth.nca import NCAConfig, grow
 from mjregen.search.backends import SerialBackend
 from mjregen.search.map_elites import MapElites, MapElitesConfig
 from mjregen.search.qd_runs import read_archive, run_map_elites
-from mjregen.search.run_folder import RunFolderError
+from mjregen.search.run_folder import RunFolderError, read_progress
 from mjregen.tasks.descriptors import describe, descriptor_ranges
 from mjregen.tasks.evaluation import PopulationEvaluation
 
@@ -177,6 +177,10 @@ def test_resume_after_a_kill_equals_an_uninterrupted_run(tmp_path):
     with pytest.raises(Killed):
         run(tmp_path / "killed", on_iteration=kill_after_iteration_2)
     assert len(rows(tmp_path / "killed")) == 3
+    progress = read_progress(tmp_path / "killed")
+    assert (progress.counter, progress.done, progress.planned, progress.complete) == (
+        "iteration", 3, 5, False)
+    assert progress.elapsed == float(rows(tmp_path / "killed")[-1]["elapsed"]) > 0
     resumed = run(tmp_path / "killed", resume=True)
     assert resumed.qd_score == full.qd_score and resumed.best_fitness == full.best_fitness
     keys = ("iteration", "qd_score", "coverage", "elites", "best", "batch_best", "batch_mean")

@@ -11,6 +11,7 @@ from mjregen.growth.checkpoint import load_nca
 from mjregen.growth.nca import NCAConfig, grow
 from mjregen.search.backends import SerialBackend
 from mjregen.search.ga import GAConfig
+from mjregen.search.run_folder import read_progress
 from mjregen.search.runs import RunFolderError, run_evolution
 from mjregen.tasks.evaluation import PopulationEvaluation
 
@@ -62,6 +63,31 @@ def test_run_folder_contents(tmp_path):
         assert Robot.load(out / "best" / f"gen_{g:04d}.npy") == nca.grow().robot()
     assert (out / "fitness.png").read_bytes()[:4] == b"\x89PNG"
     assert (out / "checkpoint.npz").is_file()
+
+
+def test_a_runs_progress_is_its_listed_generations_and_their_wall_time(tmp_path):
+    out = tmp_path / "run"
+    run(out)
+    listed = (out / "metrics.csv").read_text().splitlines()
+    progress = read_progress(out)
+    assert (progress.counter, progress.done, progress.planned, progress.complete) == (
+        "generation", 6, 6, True)
+    assert progress.elapsed == float(metrics(out)[-1]["elapsed"]) > 0
+    (out / "metrics.csv").write_text("\n".join(listed + [listed[-1].replace("5,", "6,", 1)]))
+    assert read_progress(out).done == 6  # a row beyond the plan is not a step done
+    (out / "metrics.csv").write_text("\n".join(listed[:4]) + "\n")  # a killed run's
+    progress = read_progress(out)
+    assert (progress.done, progress.complete) == (3, False)
+    assert progress.elapsed == float(metrics(out)[-1]["elapsed"])
+    (out / "metrics.csv").unlink()
+    assert (read_progress(out).done, read_progress(out).elapsed) == (0, 0.0)
+    config = json.loads((out / "config.json").read_text())
+    del config["ga"]
+    (out / "config.json").write_text(json.dumps(config))
+    with pytest.raises(RunFolderError, match="names no optimiser"):
+        read_progress(out)
+    with pytest.raises(RunFolderError, match="not a readable run configuration"):
+        read_progress(tmp_path / "nothing")
 
 
 def test_resume_after_a_kill_equals_an_uninterrupted_run(tmp_path):
