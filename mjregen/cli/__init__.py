@@ -20,14 +20,14 @@ from typing import Callable, Sequence
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 from mjregen import __version__, gl, interrupt  # noqa: E402
-from mjregen.cli import evolution, regeneration, robots  # noqa: E402
+from mjregen.cli import evolution, regeneration, robots, run_folders  # noqa: E402
 from mjregen.errors import MjregenError, OutputExistsError  # noqa: E402
 
 Handler = Callable[[argparse.Namespace], int]
 COMMANDS = {"grow": robots.add_grow, "show": robots.add_show, "walk": robots.add_walk,
             "export": robots.add_export, "render": robots.add_render,
             "evolve": evolution.add_evolve, "evolve-stats": evolution.add_evolve_stats,
-            "regen": regeneration.add_regen}
+            "regen": regeneration.add_regen, "runs": run_folders.add_runs}
 
 
 def build_parser(command: str | None = None) -> argparse.ArgumentParser:

@@ -13,6 +13,7 @@ from __future__ import annotations
 import csv
 import hashlib
 import json
+import math
 import re
 import shutil
 import sys
@@ -108,7 +109,7 @@ def read_task(task_class: type, description: object) -> object:
         return description
 
 
-def _is_run_folder(path: Path) -> bool:
+def is_run_folder(path: Path) -> bool:
     """`path` holds an mjregen run: a config.json of this run format."""
     try:
         return json.loads((path / "config.json").read_text()).get("format") == RUN_FORMAT
@@ -124,7 +125,7 @@ def _check_deletable(out: Path) -> None:
     if any(resolved == p or resolved in p.parents for p in protected):
         raise RunFolderError(f"force never deletes {out} (the working directory, the home "
                              "folder or a parent of one): choose another --out")
-    if not _is_run_folder(out):
+    if not is_run_folder(out):
         raise RunFolderError(f"{out} is not empty and does not hold an mjregen run (no "
                              f"config.json of format {RUN_FORMAT}): force only replaces run "
                              "folders; choose another --out")
@@ -252,12 +253,14 @@ class RunProgress:
       done: steps listed in metrics.csv, at most `planned`.
       planned: steps the run's config.json asks for.
       elapsed: wall time of the listed steps, s (the last row's ``elapsed``; 0 when none).
+      best: the highest fitness listed (column ``best``; -inf when none).
     """
 
     counter: str
     done: int
     planned: int
     elapsed: float
+    best: float
 
     @property
     def complete(self) -> bool:
@@ -282,7 +285,8 @@ def read_progress(folder: Path) -> RunProgress:
     planned = int(config[section][steps])
     rows = read_metrics(folder / "metrics.csv", counter, planned)
     return RunProgress(counter=counter, done=len(rows), planned=planned,
-                       elapsed=float(rows[-1]["elapsed"]) if rows else 0.0)
+                       elapsed=float(rows[-1]["elapsed"]) if rows else 0.0,
+                       best=max((float(row["best"]) for row in rows), default=-math.inf))
 
 
 def check_agreement(out: Path, rows: list[dict], done: int, counter: str) -> None:

@@ -101,6 +101,23 @@ class RunLock:
             self._handle = None
 
 
+def holder_of(folder: str | os.PathLike) -> str | None:
+    """The process that holds `folder`'s lock now, described for people; None when no live
+    process does (or the folder has no lock file). Probes with a shared lock, released at
+    once; creates nothing."""
+    try:
+        handle = open(Path(folder) / LOCK_FILE)
+    except FileNotFoundError:
+        return None
+    with handle:
+        try:
+            fcntl.flock(handle.fileno(), fcntl.LOCK_SH | fcntl.LOCK_NB)
+        except BlockingIOError:
+            return describe_holder(handle.read().strip())
+        fcntl.flock(handle.fileno(), fcntl.LOCK_UN)
+    return None
+
+
 def describe_holder(text: str) -> str:
     """The holder a lock file records, for people."""
     try:
