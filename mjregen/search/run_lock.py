@@ -2,7 +2,8 @@
 
 `RunLock(folder)` takes an exclusive, non-blocking `fcntl.flock` on ``folder/.mjregen.lock``
 (creating the folder and the file) and writes the holder's process id, host and start time
-into it. A run in another process is refused with that holder's description. Within one
+into it (trying again for a moment, `PROBE_GRACE_S`, while `holder_of` probes the lock). A
+run in another process is refused with that holder's description. Within one
 process the lock is re-entrant (a regrowth run holds its folder around the GA run it writes
 there); it does not keep apart threads of one process. The lock goes with its process, so
 the lock of a process that died (killed, crashed, a machine that rebooted) is taken over by
@@ -18,12 +19,15 @@ import fcntl
 import json
 import os
 import socket
+import time
 from datetime import datetime, timezone
 from pathlib import Path
+from typing import IO
 
 from mjregen.errors import MjregenError
 
 LOCK_FILE = ".mjregen.lock"
+PROBE_GRACE_S = 0.2  # a run finding its folder locked tries again this long: a probe's moment
 _HELD: dict[Path, int] = {}  # folders this process holds -> how many RunLocks hold each
 
 
@@ -67,9 +71,7 @@ class RunLock:
         except OSError as error:
             raise MjregenError(f"cannot lock the run folder {self.folder}: {error.strerror} "
                                f"({error.filename or self.path})") from None
-        try:
-            fcntl.flock(handle.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
+        if not _lock_within(handle, PROBE_GRACE_S):
             handle.seek(0)
             holder = handle.read().strip()
             handle.close()
@@ -101,10 +103,24 @@ class RunLock:
             self._handle = None
 
 
+def _lock_within(handle: IO[str], seconds: float) -> bool:
+    """Take the exclusive lock on `handle`'s file, trying again for up to `seconds` (a
+    `holder_of` probe holds it for microseconds); False when another process keeps it."""
+    deadline = time.monotonic() + seconds
+    while True:
+        try:
+            fcntl.flock(handle.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+            return True
+        except BlockingIOError:
+            if time.monotonic() >= deadline:
+                return False
+            time.sleep(0.01)
+
+
 def holder_of(folder: str | os.PathLike) -> str | None:
     """The process that holds `folder`'s lock now, described for people; None when no live
     process does (or the folder has no lock file). Probes with a shared lock, released at
-    once; creates nothing."""
+    once (a run starting meanwhile waits for it, `PROBE_GRACE_S`); creates nothing."""
     try:
         handle = open(Path(folder) / LOCK_FILE)
     except FileNotFoundError:

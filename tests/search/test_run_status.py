@@ -1,13 +1,16 @@
 """Where run folders stand: finished, stopped (resumable) or running in a live process."""
 
+import fcntl
 import json
+import os
+import threading
 
 import pytest
 from test_run_lock import holder  # a second process holding a folder's lock
 from test_runs import Killed, metrics, run  # the same tiny run
 
 from mjregen.cli import main
-from mjregen.search.run_lock import LOCK_FILE, holder_of
+from mjregen.search.run_lock import LOCK_FILE, PROBE_GRACE_S, RunLock, holder_of
 from mjregen.search.run_status import find_run_folders, run_status
 
 
@@ -71,3 +74,16 @@ def test_runs_command_lists_them_and_names_bad_paths(tmp_path, runs, capsys):
     assert "no such folder" in capsys.readouterr().err
     assert main(["runs", str(tmp_path / "other")]) == 1
     assert "no run folder" in capsys.readouterr().err
+
+
+def test_a_run_starting_during_a_probe_waits_for_it(tmp_path):
+    folder = tmp_path / "run"
+    folder.mkdir()
+    (folder / "config.json").write_text("{}")
+    with RunLock(folder):
+        assert holder_of(folder).startswith(f"process {os.getpid()} ")
+    probe = open(folder / LOCK_FILE)  # a probe's shared lock, released within the grace
+    fcntl.flock(probe.fileno(), fcntl.LOCK_SH)
+    threading.Timer(PROBE_GRACE_S / 4, probe.close).start()
+    with RunLock(folder):
+        assert holder_of(folder).startswith(f"process {os.getpid()} ")
