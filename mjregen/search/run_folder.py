@@ -284,9 +284,15 @@ def read_progress(folder: Path) -> RunProgress:
     steps, counter = STEP_NAMES[section]
     planned = int(config[section][steps])
     rows = read_metrics(folder / "metrics.csv", counter, planned)
-    return RunProgress(counter=counter, done=len(rows), planned=planned,
-                       elapsed=float(rows[-1]["elapsed"]) if rows else 0.0,
-                       best=max((float(row["best"]) for row in rows), default=-math.inf))
+    try:
+        elapsed = float(rows[-1]["elapsed"]) if rows else 0.0
+        best = max((float(row["best"]) for row in rows), default=-math.inf)
+    except (KeyError, TypeError, ValueError) as error:
+        raise RunFolderError(f"{folder / 'metrics.csv'} is not a readable metrics file (its "
+                             f"'elapsed' or 'best' column: {type(error).__name__}: {error})"
+                             ) from None
+    return RunProgress(counter=counter, done=len(rows), planned=planned, elapsed=elapsed,
+                       best=best)
 
 
 def check_agreement(out: Path, rows: list[dict], done: int, counter: str) -> None:

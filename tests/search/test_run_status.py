@@ -70,6 +70,11 @@ def test_runs_command_lists_them_and_names_bad_paths(tmp_path, runs, capsys):
     listed, = json.loads(capsys.readouterr().out)
     assert (listed["run"], listed["state"], listed["done"], listed["planned"]) == (
         str(stopped), "stopped", 3, 6)
+    (finished / "metrics.csv").write_text("generation,best\n0,x\n")  # damaged
+    assert main(["runs", str(tmp_path)]) == 1
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[1].startswith(str(stopped))  # the others still listed
+    assert lines[-1].startswith(f"{finished}: unreadable: {finished / 'metrics.csv'} is not")
     assert main(["runs", str(tmp_path / "missing")]) == 1
     assert "no such folder" in capsys.readouterr().err
     assert main(["runs", str(tmp_path / "other")]) == 1
