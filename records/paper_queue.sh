@@ -31,8 +31,8 @@ grown() {  # ROBOT NET: Table 1 from the robot's grown CA state, where an NCA gr
     local from_seed=runs/paper/table1/$1_from_seed/seed_0
     mjregen regen --paper "$1" --damage seed --net "$2" --gens 1001 --seed 0 --no-video \
         --quiet --out "$from_seed" $(resume "$from_seed")
-    if python -c "import json, sys; sys.exit(json.load(open('$from_seed/recovery.json'))
-                  ['similarity']['regrown'] != 729)"; then
+    if python -c "import sys; from mjregen.experiments import table1 as t
+sys.exit(not t.grows_exactly(t.read_table1_run('$from_seed')))"; then
         local out=runs/paper/table1/$1_$2_grown/seed_0
         mjregen regen --checkpoint "$from_seed/regrowth.npz" --net "$2" --gens 1001 --seed 0 \
             --no-video --quiet --out "$out" $(resume "$out")

@@ -736,6 +736,37 @@ class Report:
             self.add("Under way, not counted: " + ", ".join(
                 f"{_rel(run.folder, Path(self.args.root))} (generation {run.generations} of "
                 f"{run.planned})" for run in under_way) + ".", "")
+        self.grown_starts()
+
+    def grown_starts(self) -> None:
+        """Where a "grown" start could be had: each run that grows a robot from the paper's
+        seed (`mjregen.experiments.table1.seed_growth_runs`), and what it grew."""
+        from mjregen.experiments.table1 import grows_exactly, seed_growth_runs
+
+        runs = seed_growth_runs(self.args.root)
+        if not runs:
+            return
+        self.add("Grown starts: a \"grown\" row regrows the CA state that an NCA evolved to grow "
+                 "the robot from the paper's seed (`mjregen regen --paper ROBOT --damage seed`, "
+                 "the same GA) grows, and is run only where that NCA grows every cell as the "
+                 "robot has it (otherwise the state grown is another robot's).", "")
+        for run in runs:
+            what = (f"- {run.robot.capitalize()}, grown from the seed ("
+                    f"{NAMES.get(run.net, run.net)} NCA, {run.population} × ")
+            if run.recovery is None:
+                self.add(what + f"{run.planned}): under way, generation {run.generations}.")
+                continue
+            cells, grid = run.recovery["similarity"]["regrown"], run.recovery["grid_cells"]
+            self.add(what + f"{run.generations}, {run.elapsed / 3600:.2g} h): {cells} of "
+                     f"{grid} cells" + (": exact, the start of the grown row." if
+                                        grows_exactly(run) else
+                                        f", {grid - cells} wrong: no grown state of it, no "
+                                        "grown row."))
+            self.facts.append(f"{run.robot.capitalize()} grown from the paper's seed "
+                              f"(n = 1 run, {NAMES.get(run.net, run.net)}): {cells} of {grid} "
+                              "cells" + ("" if grows_exactly(run) else
+                                         ", so no grown start of it can be had") + ".")
+        self.add("")
 
     def _table1_row(self, row, theirs: dict | None, measured: dict) -> None:
         """One row of `table1_runs` and its fact; `theirs`: the paper's row for the robot and

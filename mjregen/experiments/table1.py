@@ -4,7 +4,8 @@ Runs live under ``<root>/table1/<robot>_<name>/seed_<s>`` (`mjregen regen --pape
 --out ...`); every finished one (a recovery.json) that regrows the paper's cut counts, and
 rows group them by robot, regrowth network and start (how the CA state regrown from was
 made: "saved", "alpha 1" or "grown"). Runs that grow a robot from its seed (``--damage
-seed``, the source of a "grown" start) are not rows. The paper's engine walks each run's
+seed``, the source of a "grown" start) are not rows: `seed_growth_runs` lists them, and
+`grows_exactly` says whether one's grown state is a start of its robot. The paper's engine walks each run's
 original, damaged and regrown robot once (`measure_in_engine`); the distances are kept in
 ``<root>/table1_engine.json`` by the robot files' paths relative to `root`.
 """
@@ -23,6 +24,7 @@ import numpy as np
 from mjregen.experiments.engine_walks import read_kept, walk_new
 from mjregen.experiments.paper import read_run
 from mjregen.experiments.recovery import ROLES
+from mjregen.experiments.regrowth import SEED_DAMAGE
 from mjregen.grid import Robot
 from mjregen.validation.engine import PaperEngine
 
@@ -49,13 +51,14 @@ class Spread:
 
 @dataclass(frozen=True)
 class Table1Run:
-    """One finished regrowth run.
+    """One regrowth run.
 
     Attributes:
       folder: its run folder.
       robot: the robot's name (the folder's parent's name up to its first "_").
       net: the regrowth network, "ff" or "lstm".
       start: how the CA state regrown from was made ("saved", "alpha 1", "grown").
+      damage: what was erased (`PAPER_CUT`; `SEED_DAMAGE`: all but the paper's seed).
       seed: the GA's seed.
       population, generations, planned: the GA's population, the generations it ran and
         the generations it was started for.
@@ -69,6 +72,7 @@ class Table1Run:
     robot: str
     net: str
     start: str
+    damage: str
     seed: int
     population: int
     generations: int
@@ -95,24 +99,43 @@ def runs_under_way(root: str | Path) -> list[Table1Run]:
     return [run for run in _paper_cut_runs(root) if run.recovery is None]
 
 
+def seed_growth_runs(root: str | Path) -> list[Table1Run]:
+    """The runs under ``root/table1`` that grow a robot from the paper's seed (``--damage
+    seed``, the source of a "grown" start), finished or not, in folder order. A finished one
+    grows its robot exactly when `grows_exactly`."""
+    return _runs_with_damage(root, SEED_DAMAGE)
+
+
+def grows_exactly(run: Table1Run) -> bool:
+    """Does the finished run's best NCA grow (regrow) every cell of the grid as the
+    original has it? (Only then is its grown CA state a start of the same robot.)"""
+    return run.recovery is not None and (
+        run.recovery["similarity"]["regrown"] == run.recovery["grid_cells"])
+
+
 def _paper_cut_runs(root: str | Path) -> list[Table1Run]:
-    runs = []
-    for folder in all_run_folders(root):
-        progress = read_run(folder)
-        config = progress.config
-        task = config["task"]
-        if task.get("damage") != PAPER_CUT:
-            continue
-        recovery = folder / "recovery.json"
-        runs.append(Table1Run(folder=folder, robot=folder.parent.name.split("_")[0],
-                              net=task["nca"]["kind"], start=task.get("start", "?"),
-                              seed=int(config["seed"]),
-                              population=int(config["ga"]["population"]),
-                              generations=progress.generations_done,
-                              planned=progress.generations_planned, elapsed=progress.elapsed,
-                              recovery=json.loads(recovery.read_text())
-                              if recovery.is_file() else None))
-    return runs
+    return _runs_with_damage(root, PAPER_CUT)
+
+
+def _runs_with_damage(root: str | Path, damage: str) -> list[Table1Run]:
+    runs = [read_table1_run(folder) for folder in all_run_folders(root)]
+    return [run for run in runs if run.damage == damage]
+
+
+def read_table1_run(folder: str | Path) -> Table1Run:
+    """The regrowth run in `folder` (its robot named by the folder's parent)."""
+    folder = Path(folder)
+    progress = read_run(folder)
+    config = progress.config
+    task = config["task"]
+    recovery = folder / "recovery.json"
+    return Table1Run(folder=folder, robot=folder.parent.name.split("_")[0],
+                     net=task["nca"]["kind"], start=task.get("start", "?"),
+                     damage=task.get("damage", "?"), seed=int(config["seed"]),
+                     population=int(config["ga"]["population"]),
+                     generations=progress.generations_done,
+                     planned=progress.generations_planned, elapsed=progress.elapsed,
+                     recovery=json.loads(recovery.read_text()) if recovery.is_file() else None)
 
 
 @dataclass(frozen=True)

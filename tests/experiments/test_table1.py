@@ -11,10 +11,13 @@ import pytest
 from mjregen.experiments.table1 import (
     ENGINE_FILE,
     Spread,
+    grows_exactly,
     list_table1_runs,
     measure_in_engine,
     read_engine_distances,
+    read_table1_run,
     runs_under_way,
+    seed_growth_runs,
     table1_rows,
 )
 from mjregen.grid import Material
@@ -139,3 +142,26 @@ def test_the_report_shows_each_rows_spread_beside_the_papers_table(root, tmp_pat
     # compute: all 7 run folders, the one that grows the tripod from its seed included
     assert ("Table 1 at the paper's scale: 7 runs, those that grow a robot from its seed and "
             "those under way included, 7 h of wall time.") in text
+
+
+def test_runs_that_grow_a_robot_from_its_seed_say_whether_a_grown_start_can_be_had(root, tmp_path):
+    fake_run(root, "multiped_from_seed", 0, net="lstm", damage="seed", regrown_cells=729)
+    fake_run(root, "biped_from_seed", 0, damage="seed", finished=False)
+    runs = seed_growth_runs(root)
+    assert [(r.folder.parent.name, grows_exactly(r)) for r in runs] == [
+        ("biped_from_seed", False), ("multiped_from_seed", True), ("tripod_from_seed", False)]
+    multiped = read_table1_run(root / "table1" / "multiped_from_seed" / "seed_0")
+    assert (multiped.robot, multiped.net, multiped.damage) == ("multiped", "lstm", "seed")
+    assert multiped not in list_table1_runs(root)  # not a row of the table
+    report = load_module("scripts/results_report.py")
+    out = tmp_path / "out" / "results.md"
+    assert report.main(["--root", str(root), "--assets", str(tmp_path), "--out", str(out),
+                        "--no-render"]) == 0
+    text = out.read_text()
+    assert ("- Tripod, grown from the seed (feed-forward NCA, 8 × 2, 1 h): 700 of 729 cells, "
+            "29 wrong: no grown state of it, no grown row.") in text
+    assert ("- Multiped, grown from the seed (LSTM NCA, 8 × 2, 1 h): 729 of 729 cells: exact, "
+            "the start of the grown row.") in text
+    assert "- Biped, grown from the seed (feed-forward NCA, 8 × 2): under way, generation 2." in text
+    assert ("Tripod grown from the paper's seed (n = 1 run, feed-forward): 700 of 729 cells, so "
+            "no grown start of it can be had.") in text
