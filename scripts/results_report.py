@@ -1024,8 +1024,8 @@ class Report:
         folder = _rel(self.figures, self.doc_dir)
         body = [line.replace("](quality_diversity/", f"]({folder}/quality_diversity/")
                 for line in path.read_text().strip().splitlines()]
-        self.add("## " + body[0].lstrip("# "), "", *("#" + line if line.startswith("#") else line
-                                                     for line in body[1:]), "")
+        rest = [("#" + line if line.startswith("#") else line) for line in body[1:]]
+        self.add("## " + body[0].lstrip("# "), "", *(rest[1:] if rest[:1] == [""] else rest), "")
 
     def repeated_evolutions(self) -> None:
         """The comparison's GA runs that are this root's 3D feed-forward runs evolved again
