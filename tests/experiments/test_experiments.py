@@ -565,7 +565,7 @@ def test_the_quality_diversity_section_is_the_page_in_the_reports_own_figures_fo
         "# Quality diversity: a test\n\n## Runs\n\n![curves](quality_diversity/curves.png)\n")
     assert results_report.main(argv) == 0
     text = out.read_text()
-    assert "## Quality diversity: a test" in text and "### Runs" in text
+    assert "## Quality diversity: a test\n\n### Runs" in text  # one blank line, as written
     assert "![curves](page/quality_diversity/curves.png)" in text  # relative to the report
 
 
