@@ -219,7 +219,7 @@ class Physics:
         if not isinstance(self.pipeline, (VoxelPipeline, MujocoPipeline)):
             raise PhysicsParameterError(
                 f"pipeline must be VoxelPipeline or MujocoPipeline, got {type(self.pipeline)}")
-        if self.scene.rest_threshold > 0.0 and self.pipeline.name != "voxel":
+        if self.scene.rest_threshold > 0.0 and not self.pipeline.holds_at_rest:
             raise PhysicsParameterError(
                 f"settle_rest {self.scene.settle_rest!r}: the settle's rest is the voxel "
                 f"plugin's; the {self.pipeline.name} pipeline settles for the full time (use 0)")

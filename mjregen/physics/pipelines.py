@@ -89,6 +89,7 @@ class VoxelPipeline:
 
     name: ClassVar[str] = "voxel"
     integrator: ClassVar[str] = "euler"  # semi-implicit Euler, the paper engine's
+    holds_at_rest: ClassVar[bool] = True  # the settle can end at rest (`Scene.settle_rest`)
     bond_element: str = "beam"
     beam_law: str = "engine"
     beam_damping: str = "engine"
@@ -157,6 +158,7 @@ class MujocoPipeline:
     """
 
     name: ClassVar[str] = "mujoco"
+    holds_at_rest: ClassVar[bool] = False  # it settles for the full settle time
     contact_shape: str = "sphere"
     bond_model: str = "timoshenko"
     contact_stiffness: float | None = 2.0

@@ -61,6 +61,6 @@ def body_physics(physics: Physics, body: str) -> Physics:
     scene = physics.scene
     rest = scene.settle_rest
     if rest is None:
-        rest = SHEET_SETTLE_REST if physics.pipeline.name == "voxel" else 0.0
+        rest = SHEET_SETTLE_REST if physics.pipeline.holds_at_rest else 0.0
     settle, measured = scene.timing(2)
     return physics.replace(settle_time=settle, measured_time=measured, settle_rest=rest)
