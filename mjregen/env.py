@@ -48,6 +48,7 @@ from dm_env import specs  # noqa: E402
 from mjregen.errors import CompileError, MjregenError  # noqa: E402
 from mjregen.grid import Robot  # noqa: E402
 from mjregen.physics import voxel_plugin  # noqa: E402
+from mjregen.physics.builders import builder_for  # noqa: E402
 from mjregen.physics.compile import compile_robot  # noqa: E402
 from mjregen.physics.params import Physics  # noqa: E402
 from mjregen.physics.simulation import instability, inverse_speed_limits  # noqa: E402
@@ -198,7 +199,7 @@ def load(robot: Robot, *, physics: Physics | None = None, duration: float | None
       MjregenError: the pure-MuJoCo pipeline (its muscles need a Python driver).
     """
     physics = Physics() if physics is None else physics
-    if physics.pipeline.name != "voxel":
+    if builder_for(physics.pipeline).drives_muscle_tendons:
         raise MjregenError("the environment runs the voxel pipeline (the MuJoCo pipeline's "
                            "muscles are driven from Python, not by the model)")
     scene = physics.scene

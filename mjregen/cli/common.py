@@ -161,12 +161,18 @@ def add_body_argument(parser: argparse.ArgumentParser) -> None:
 def physics_from_args(args: argparse.Namespace):
     """The `Physics` that --physics, --bonds, --timestep-rule, --settle, --start-shift and
     --settle-rest describe, with --duration checked too (before any work starts)."""
-    from mjregen.physics import Physics, box_physics, paper_physics, sphere_physics
+    from mjregen.physics import (
+        Physics,
+        VoxelPipeline,
+        box_physics,
+        paper_physics,
+        sphere_physics,
+    )
 
     presets = {"paper": paper_physics, "sphere": sphere_physics, "box": box_physics}
     physics = presets.get(args.physics, Physics)()
     if args.bonds is not None:
-        if physics.pipeline.name != "voxel":
+        if not isinstance(physics.pipeline, VoxelPipeline):
             raise MjregenError(f"--bonds sets the voxel pipeline's bond element; --physics "
                                f"{args.physics} is the pure-MuJoCo pipeline (8 tendons per bond)")
         physics = physics.replace(bond_element=args.bonds)

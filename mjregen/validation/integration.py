@@ -19,7 +19,7 @@ import mujoco
 import numpy as np
 
 from mjregen.grid import Robot
-from mjregen.physics import MujocoPipeline, Physics
+from mjregen.physics import MujocoPipeline, Physics, VoxelPipeline
 from mjregen.physics.compile import compile_robot
 from mjregen.physics.simulation import Simulation, walk
 from mjregen.physics.start_state import translational_coordinates
@@ -102,7 +102,7 @@ def evaluate(run: Run) -> dict:
     # the exact start, then every voxel shifted by `perturb` voxel lengths (seed `seed`)
     # directly in the state: finer than a start's keyframe holds
     physics = run.physics.replace(settle_time=run.settle, start_shift=0.0)
-    if name != "euler" and physics.pipeline.name == "voxel":
+    if name != "euler" and isinstance(physics.pipeline, VoxelPipeline):
         # Euler runs what `simulate` runs (the voxel plugin: beam bonds, engine floor, native
         # stepper); the other integrators run MuJoCo's own tendons and contacts, the engine
         # floor's nearest ("point"), with the muscles driven from Python (so "-mid" applies)
