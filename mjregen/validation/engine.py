@@ -98,7 +98,9 @@ class PaperEngine:
                    measure_from: float, settings: dict[str, float] | None = None) -> dict:
         """One run of the optimised engine with its step at `dt_fraction` of its own
         stability rule (the paper's 0.9), `stop` s simulated and the distance measured from
-        `measure_from` s: {"distance": voxel lengths, "cpu_s": the engine process's CPU s}.
+        `measure_from` s: {"distance": voxel lengths, "cpu_s": the engine process's CPU s,
+        "dy": voxel lengths, the distance's y component, "on_floor": voxels touching the
+        floor at the end (each None when the engine did not write it)}.
         `settings`: other elements of the paper's settings set to other values, by tag (e.g.
         ``{"SelfColEnabled": 0}``: no self-collision).
 
@@ -121,9 +123,17 @@ class PaperEngine:
                                        stderr=subprocess.DEVNULL, cwd=folder)
             _, status, usage = os.wait4(process.pid, 0)  # it exits with 1 after a normal run
             written = folder / "fitness.xml"
-            match = re.search(r"<NormFinalDist>([^<]+)</NormFinalDist>",
-                              written.read_text() if written.exists() else "")
-        if match is None:
+            fitness = written.read_text() if written.exists() else ""
+        distance = _fitness_value(fitness, "NormFinalDist")
+        if distance is None:
             raise MjregenError(f"the engine wrote no distance (exit status {status >> 8}) at "
                                f"DtFrac {dt_fraction}")
-        return {"distance": float(match.group(1)), "cpu_s": usage.ru_utime + usage.ru_stime}
+        return {"distance": distance, "cpu_s": usage.ru_utime + usage.ru_stime,
+                "dy": _fitness_value(fitness, "finalDistY"),
+                "on_floor": _fitness_value(fitness, "NumTouchingFloor")}
+
+
+def _fitness_value(text: str, tag: str) -> float | None:
+    """The number in the engine's fitness file `text` under `tag`, or None."""
+    match = re.search(rf"<{tag}>([^<]+)</{tag}>", text)
+    return None if match is None else float(match.group(1))

@@ -124,6 +124,7 @@ def test_a_window_run_gives_the_engine_its_step_duration_and_measurement(tmp_pat
     out = engine.run_window(TRIPOD.grid, dt_fraction=0.45, stop=0.55, measure_from=0.05)
     assert out["distance"] == pytest.approx(100 * 0.45 + 10 * 0.55 + 0.05)
     assert out["cpu_s"] >= 0.0
+    assert out["dy"] is None and out["on_floor"] is None  # the stand-in writes only the distance
     with pytest.raises(MjregenError, match="wrote no distance .* at DtFrac 0.0"):
         engine.run_window(TRIPOD.grid, dt_fraction=0.0, stop=0.0, measure_from=0.0)
     # another element of the settings, by its tag
