@@ -31,6 +31,15 @@ def test_the_timeline_ends_at_the_distance_simulate_measures():
     assert points[-1].distance > 10 * points[0].distance > 0.0
 
 
+def test_a_2d_timeline_measures_along_x_only():
+    bimorph = Robot.load(asset("robots", "bimorph_walker_2d.npy"))  # in the x-z plane
+    settle, measured = Physics().scene.timing(2)
+    points = mjregen_timeline(bimorph, [settle + measured / 2, settle + measured])
+    walked = simulate(bimorph)
+    assert points[-1].distance == walked.distance and points[-1].dy == 0.0
+    assert points[-1].on_floor >= 1  # it walks on the floor
+
+
 def test_a_resting_block_stays_put_on_its_bottom_layer():
     block = Robot(np.pad(np.full((2, 2, 2), int(Material.SOFT), np.int8), 1))
     points = mjregen_timeline(block, [0.06, 0.1], physics=Physics().replace(start_shift=0.0))
