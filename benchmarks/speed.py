@@ -327,6 +327,13 @@ def recorded_bullets(recorded: list[dict]) -> list[str]:
                     f"generations, {how}): **{wall} h** of wall time"
                     + (f" each; at each run's median generation {median} h" if len(done) > 1
                        else f"; at its median generation {median} h") + " (table below).")
+    two_cores = two_core_run()
+    if two_cores is not None:
+        lines.append(f"- A paper-size 3D run on 2 cores with nothing beside it (the evolution "
+                     f"of `{two_cores['reference']}`, its first "
+                     f"{two_cores['generations_done']} generations measured): "
+                     f"**{two_cores['projected_h']:.2f} h** projected (section \"The same "
+                     "evolution again, and on 2 cores\").")
     return lines
 
 
@@ -334,6 +341,97 @@ def _span(values: list[float]) -> str:
     """'low–high' of `values` (2 decimals), or the one value."""
     low, high = f"{min(values):.2f}", f"{max(values):.2f}"
     return low if low == high else f"{low}–{high}"
+
+
+REPEATED = ROOT / "records" / "paper" / "qd" / "ga"  # the QD comparison's GA: 3d_ff seeds again
+ORIGINALS = ROOT / "records" / "paper" / "3d_ff"
+TWO_CORES = Path(__file__).with_name("paper_run_2_cores.json")  # a paper run's start on 2 cores
+SAME_COLUMNS = ("best", "mean", "std")  # equal in every generation: the same evolution
+
+
+def _metrics(folder: Path) -> list[dict]:
+    with open(folder / "metrics.csv", newline="") as handle:
+        return list(csv.DictReader(handle))
+
+
+def _same_evolution(rows: list[dict], reference: list[dict]) -> bool:
+    """Whether `rows` (generations of a run) equal the first generations of `reference` in
+    best, mean and std fitness, to the digits metrics.csv keeps."""
+    return len(rows) <= len(reference) and all(
+        row[k] == ref[k] for row, ref in zip(rows, reference) for k in SAME_COLUMNS)
+
+
+def _hours(rows: list[dict]) -> float:
+    return sum(float(row["wall_time"]) for row in rows) / 3600
+
+
+def repeated_runs() -> list[dict]:
+    """Each 3d_ff run of records/paper that the QD comparison's GA ran again: its
+    generations in both, wall hours of those generations in each, and whether they are the
+    same evolution."""
+    out = []
+    for rerun in sorted(REPEATED.glob("seed_*")):
+        original = ORIGINALS / rerun.name
+        if not ((rerun / "metrics.csv").is_file() and (original / "metrics.csv").is_file()):
+            continue
+        again, first = _metrics(rerun), _metrics(original)
+        n = min(len(again), len(first))
+        out.append({"run": f"3d_ff {rerun.name.replace('_', ' ')}", "generations": n,
+                    "original_h": _hours(first[:n]), "again_h": _hours(again[:n]),
+                    "same": _same_evolution(again[:n], first)})
+    return out
+
+
+def two_core_run(path: Path | None = None) -> dict | None:
+    """The measured start of a paper run on 2 cores (`path`, default TWO_CORES), projected to
+    all its generations by its reference run's share of time in those generations; None
+    without the file.
+
+    Raises:
+      ValueError: the measured generations are not the reference run's evolution.
+    """
+    path = TWO_CORES if path is None else path
+    if not path.is_file():
+        return None
+    measured = json.loads(path.read_text())
+    reference = _metrics(ROOT / measured["reference"])
+    rows = measured["generations"]
+    if not _same_evolution(rows, reference):
+        raise ValueError(f"{path}: its generations are not those of {measured['reference']}")
+    share = _hours(reference[: len(rows)]) / _hours(reference)
+    return {**measured, "generations_done": len(rows), "planned": len(reference),
+            "share": share, "projected_h": measured["wall_s"] / share / 3600}
+
+
+def repeated_section() -> list[str]:
+    """The section on records' runs evolved again: their wall times, and a run's start on 2
+    cores with nothing beside it."""
+    repeated, two_cores = repeated_runs(), two_core_run()
+    if not repeated and two_cores is None:
+        return []
+    lines = ["## The same evolution again, and on 2 cores", "",
+             "A run's recorded wall time depends on what else the machine did meanwhile. The "
+             "GA runs of the quality-diversity comparison evolve 3d_ff seeds 0-2 of "
+             "`records/paper/` again, days later with the code of their day, one run per core "
+             "beside another run; where their best, mean and std fitness equal the first "
+             "run's in every generation, the two are the same evolution and only the time "
+             "differs (what slowed the first run, other work beside it or the code of its "
+             "day, the table does not tell).", "",
+             "| run | generations compared | same evolution | first run (h) | again (h) | first / again |",
+             "|---|---|---|---|---|---|"]
+    lines += [f"| {r['run']} | {r['generations']} | {'yes' if r['same'] else 'no'} | "
+              f"{r['original_h']:.2f} | {r['again_h']:.2f} | "
+              f"{r['original_h'] / r['again_h']:.2f} |" for r in repeated]
+    if two_cores is not None:
+        lines += ["", f"On 2 cores: {two_cores['what']} ({two_cores['date']}, commit "
+                  f"{two_cores['commit']}; `{two_cores['command']}`): "
+                  f"{two_cores['generations_done']} generations, the same evolution as "
+                  f"`{two_cores['reference']}`, in {two_cores['wall_s']:.0f} s of wall time "
+                  f"and {two_cores['cpu_s']:.0f} CPU s. Those generations took "
+                  f"{two_cores['share']:.1%} of that run's time, so all "
+                  f"{two_cores['planned']} at this rate: **{two_cores['projected_h']:.2f} h** "
+                  "on 2 cores."]
+    return lines
 
 
 def recorded_section(recorded: list[dict]) -> list[str]:
@@ -509,7 +607,7 @@ def performance_doc(report: dict, extra: dict, evolution: dict | None,
     lines += _where_the_time_goes(report, extra)
     lines += _real_evolution_section(evolution)
     if recorded:
-        lines += ["", *recorded_section(recorded)]
+        lines += ["", *recorded_section(recorded), "", *repeated_section()]
     return "\n".join([*lines, *sections]) + "\n"
 
 
@@ -776,7 +874,8 @@ def main() -> None:
     args = parser.parse_args()
     if args.records:
         recorded = all_recorded_evolutions()
-        print("\n".join([*recorded_bullets(recorded), "", *recorded_section(recorded)]))
+        print("\n".join([*recorded_bullets(recorded), "", *recorded_section(recorded), "",
+                         *repeated_section()]))
         return
     table = robots()
     names = args.robots or (list(DOC_ROBOTS) if args.doc else

@@ -10,7 +10,8 @@
 #   bash records/paper_queue.sh report ENGINE
 # walks the records' new robots in the paper's engine (ENGINE: its folder, benchmarks/transfer.py
 # --voxelyze), writes the page of the GA against MAP-Elites for the seeds both methods have
-# started, and regenerates docs/results.md from the records.
+# started (its walking elites walked in the engine too), and regenerates docs/results.md from
+# the records.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 resume() { if [ -f "$1/config.json" ]; then echo --resume; fi; }
@@ -95,7 +96,7 @@ case "${1:-}" in
         if [ -n "$qd_seeds" ]; then  # the seeds both methods have started
             # shellcheck disable=SC2086  # one seed a word
             python scripts/qd_comparison.py --root records/paper/qd --seeds $qd_seeds \
-                --pop 100 --gens 300 --report --docs docs/results
+                --pop 100 --gens 300 --report --docs docs/results --engine "$engine"
         fi
         python scripts/results_report.py --root records/paper
         ;;

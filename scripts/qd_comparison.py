@@ -14,18 +14,22 @@ into --docs, the figures folder of the results page that includes it (docs/resul
 docs/results.md, `scripts/results_report.py`): per method over seeds, the best fitness, the
 QD score and coverage of all its evaluations placed in one archive, and the number of distinct
 walking morphologies (archive cells whose elite walks at least 25 % as far as the farthest robot
-of the whole comparison); curves of best fitness and QD score over evaluations (means and
-bootstrapped 95 % CIs); each method's archive heatmap and MAP-Elites' gallery (seed 0).
+of the whole comparison) and how many of those the paper's engine walks at least 80 % as far
+(the transfer rule's share; ``--engine DIR`` walks the elites not yet measured, kept in
+<root>/engine_walks.json, which a report without the engine reads); curves of best fitness and
+QD score over evaluations (means and bootstrapped 95 % CIs); each method's archive heatmap and
+MAP-Elites' gallery (seed 0).
 
 Examples:
   python scripts/qd_comparison.py --root runs/qd --seeds 0 1 2 --pop 50 --gens 40 --workers 2
   python scripts/qd_comparison.py --root runs/qd --seeds 0 1 2 --pop 50 --gens 40 --report \
-      --docs docs/results
+      --docs docs/results [--engine DIR]
 """
 
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
 import sys
 import time
@@ -34,6 +38,8 @@ from pathlib import Path
 
 import numpy as np
 
+from mjregen.experiments.engine_walks import read_kept, walk_new
+from mjregen.grid import Robot
 from mjregen.growth.nca import NCAConfig
 from mjregen.physics import Physics
 from mjregen.search.backends import make_backend
@@ -45,11 +51,14 @@ from mjregen.search.runs import run_evolution
 from mjregen.search.stats import bootstrap_curves
 from mjregen.tasks.descriptors import default_cells, describe, descriptor_ranges
 from mjregen.tasks.locomotion import LocomotionTask
+from mjregen.validation.engine import PaperEngine
+from mjregen.validation.transfer import ENGINE
 
 METHODS = ("ga", "map-elites")
 DESCRIPTORS = ("voxels", "muscle")
 WALKING = 0.25  # a morphology walks when it goes this fraction of the comparison's farthest
 SMALL = 50  # voxels: a small robot (where the fitness's voxel cost pushes the GA)
+ENGINE_WALKS = "engine_walks.json"  # in the root: the paper engine's distance of each elite
 REPOSITORY = Path(__file__).resolve().parent.parent
 ROOT_DOCS = REPOSITORY / "docs" / "results"  # the figures folder of docs/results.md
 
@@ -156,6 +165,30 @@ def archive_of(found: dict[str, np.ndarray]) -> tuple[MapElites, list[float]]:
     return search, scores
 
 
+def grid_key(grid: np.ndarray) -> str:
+    """The key of a robot grid in ENGINE_WALKS: its sha256 (of the int8 bytes), shortened."""
+    return "grid " + hashlib.sha256(np.ascontiguousarray(grid, np.int8).tobytes()).hexdigest()[:24]
+
+
+def engine_transfers(walkers: dict, root: Path, engine: Path | None) -> dict:
+    """{(method, seed): how many of its walking elites the paper's engine walks at least
+    ENGINE as far as recorded, or None where one is not measured}. `walkers`: (method, seed)
+    -> (grids ``(n, *shape)``, recorded distances ``(n,)``); `engine`: the engine's folder, to
+    walk the elites `root`/ENGINE_WALKS does not hold yet (None: read it only)."""
+    path = root / ENGINE_WALKS
+    if engine is not None:
+        robots = [(grid_key(grid), lambda grid=grid: Robot(grid))
+                  for grids, _ in walkers.values() for grid in grids]
+        walk_new(path, robots, PaperEngine(engine), progress=lambda line: None)
+    kept = read_kept(path)
+    counts = {}
+    for key, (grids, distances) in walkers.items():
+        walked = [kept.get(grid_key(grid)) for grid in grids]
+        counts[key] = (None if any(d is None for d in walked) else
+                       int(sum(d >= ENGINE * r for d, r in zip(walked, distances))))
+    return counts
+
+
 def report(args: argparse.Namespace) -> None:
     from mjregen.figures import elite_gallery
     from mjregen.plotting import save_png
@@ -166,11 +199,14 @@ def report(args: argparse.Namespace) -> None:
     found = {(m, s): evaluations(args.root / m / f"seed_{s}") for m in METHODS for s in args.seeds}
     farthest = max(float(np.nanmax(f["distance"])) for f in found.values())
     rows, curves, archives = {}, {m: {"best": [], "qd": []} for m in METHODS}, {}
+    walkers = {}
     for (method, seed), data in found.items():
         archive, qd = archives[(method, seed)] = archive_of(data)
         elites = archive.archive.data()
         stats = archive.stats()
-        walking = int(np.count_nonzero(elites["distance"] >= WALKING * farthest))
+        walks = elites["distance"] >= WALKING * farthest
+        walkers[(method, seed)] = (elites["grid"][walks], elites["distance"][walks])
+        walking = int(np.count_nonzero(walks))
         best = np.maximum.accumulate([data["fitness"][data["batch"] == b].max()
                                       for b in range(len(qd))])
         curves[method]["best"].append(best)
@@ -181,6 +217,8 @@ def report(args: argparse.Namespace) -> None:
                                 "qd_score": stats["qd_score"], "coverage": stats["coverage"],
                                 "walking": walking,
                                 "distance": float(np.nanmax(data["distance"]))}
+    for key, count in engine_transfers(walkers, args.root, args.engine).items():
+        rows[key]["transfer"] = count
     per_batch = args.pop
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
@@ -241,24 +279,30 @@ def write_markdown(args: argparse.Namespace, rows: dict, farthest: float) -> Non
         f"Every evaluation of either method is placed in one archive of those cells to compare "
         f"QD score (sum of elites' fitness + 21) and coverage. A morphology walks when its "
         f"cell's elite goes at least {WALKING:.0%} of the farthest robot of the comparison "
-        f"({farthest:.2f} voxel lengths). Wall time of the runs by their own clocks "
+        f"({farthest:.2f} voxel lengths); it transfers when the paper's engine walks that "
+        f"elite at least {ENGINE:.0%} as far as its run recorded (`--engine DIR`, kept in "
+        f"{ENGINE_WALKS} beside the runs; – where not measured). Wall time of the runs by "
+        f"their own clocks "
         f"(metrics.csv), summed over the seeds: GA {hours['ga']:.2f} h, MAP-Elites "
         f"{hours['map-elites']:.2f} h.", "",
-        "| method | seed | evaluations | best fitness | QD score | coverage | walking morphologies | farthest (voxel lengths) |",
-        "|---|---|---|---|---|---|---|---|",
+        "| method | seed | evaluations | best fitness | QD score | coverage | walking morphologies | of which transfer to the engine | farthest (voxel lengths) |",
+        "|---|---|---|---|---|---|---|---|---|",
     ]
     for (method, seed), r in sorted(rows.items()):
         under_way = ("" if r["evaluations"] >= args.pop * args.gens
                      else f" of {args.pop * args.gens} (under way)")
         lines.append(f"| {method} | {seed} | {r['evaluations']}{under_way} | {r['best']:.2f} | "
                      f"{r['qd_score']:.0f} | {r['coverage']:.1%} | {r['walking']} | "
+                     f"{'–' if r['transfer'] is None else r['transfer']} | "
                      f"{r['distance']:.2f} |")
     for method in METHODS:
         values = {k: np.array([rows[(method, s)][k] for s in args.seeds]) for k in
                   ("best", "qd_score", "coverage", "walking")}
+        transfer = [rows[(method, s)]["transfer"] for s in args.seeds]
         lines.append(f"| **{method} mean** | | | {values['best'].mean():.2f} | "
                      f"{values['qd_score'].mean():.0f} | {values['coverage'].mean():.1%} | "
-                     f"{values['walking'].mean():.1f} | |")
+                     f"{values['walking'].mean():.1f} | "
+                     f"{'–' if None in transfer else f'{np.mean(transfer):.1f}'} | |")
     if any(r["evaluations"] < args.pop * args.gens for r in rows.values()):
         lines += ["", "Runs under way count the evaluations they have made; the curves end where "
                   "the shortest run of each method stands."]
@@ -289,8 +333,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--docs", type=Path, default=ROOT_DOCS,
                         help="folder of the report: quality_diversity.md and its figures "
                              "(default: docs/results/, which docs/results.md includes)")
+    parser.add_argument("--engine", type=Path,
+                        help="with --report: the paper's engine's folder (its vxa.py), to walk "
+                             f"the walking elites <root>/{ENGINE_WALKS} does not hold yet")
     parser.add_argument("--quiet", action="store_true")
     args = parser.parse_args(argv)
+    if args.engine is not None and not args.report:
+        parser.error("--engine goes with --report")
     if args.report:
         report(args)
     else:

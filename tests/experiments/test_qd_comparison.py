@@ -1,7 +1,10 @@
 """The quality-diversity comparison's records: a tiny comparison run (3D feed-forward NCAs,
 GA against MAP-Elites), kept by scripts/snapshot_runs.py, gives the same report as its
-full run folders, and a record resumes without evaluating anything again."""
+full run folders, and a record resumes without evaluating anything again; the walking elites
+walked in the paper's engine (a stand-in runner) are kept and counted against the rule."""
 
+import json
+import re
 import shutil
 from pathlib import Path
 
@@ -72,3 +75,56 @@ def test_qd_records_give_the_same_report_and_resume_without_evaluating(tmp_path)
         snapshot_runs.snapshot_map_elites(restored / "map-elites" / "seed_0", tmp_path / "again")
     with pytest.raises(FileNotFoundError, match="best.npz"):
         snapshot_runs.snapshot_map_elites(ga, tmp_path / "elsewhere")
+
+
+# the paper engine's stand-in: a runner whose robots walk DISTANCE voxel lengths
+STAND_IN_RUNNER = """
+def run(grid):
+    assert grid.ndim == 3 and grid.any()
+    return {{"distance": {distance!r}, "cpu_s": 0.0}}
+"""
+
+
+def stand_in_engine(folder: Path, distance: float) -> Path:
+    folder.mkdir()
+    (folder / "vxa.py").write_text(STAND_IN_RUNNER.format(distance=distance))
+    return folder
+
+
+def transfer_column(page: str) -> dict[str, tuple[str, str]]:
+    """{method: (walking morphologies, of which transfer)} of seed 0's rows: the 7th and 8th
+    cells."""
+    rows = re.findall(r"^\| (ga|map-elites) \| 0 \|(?:[^|]*\|){4}([^|]*)\|([^|]*)\|", page, re.M)
+    return {method: (walking.strip(), transfer.strip()) for method, walking, transfer in rows}
+
+
+def test_walking_elites_are_walked_in_the_engine_once_and_counted(tmp_path):
+    runs = tmp_path / "runs"
+    assert qd_comparison.main(["--root", str(runs), *TINY]) == 0
+    report = ["--root", str(runs), "--docs", str(tmp_path / "docs"), "--report", *TINY]
+    assert qd_comparison.main(report) == 0  # no measurements: not measured
+    page = (tmp_path / "docs" / "quality_diversity.md").read_text()
+    assert {t for _, t in transfer_column(page).values()} == {"–"}
+    # an engine that walks every robot far: every walking morphology transfers
+    far = stand_in_engine(tmp_path / "far", 1e6)
+    assert qd_comparison.main([*report, "--engine", str(far)]) == 0
+    page = (tmp_path / "docs" / "quality_diversity.md").read_text()
+    columns = transfer_column(page)
+    assert set(columns) == {"ga", "map-elites"}
+    assert all(int(walking) >= 1 and transfer == walking for walking, transfer in columns.values())
+    kept = json.loads((runs / qd_comparison.ENGINE_WALKS).read_text())
+    assert set(kept.values()) == {1e6}
+    # kept: a report without the engine reads them, and an engine that would walk nothing
+    # is not asked again
+    assert qd_comparison.main(report) == 0
+    assert (tmp_path / "docs" / "quality_diversity.md").read_text() == page
+    still = stand_in_engine(tmp_path / "still", 0.0)
+    assert qd_comparison.main([*report, "--engine", str(still)]) == 0
+    assert (tmp_path / "docs" / "quality_diversity.md").read_text() == page
+    # measured from scratch, an engine that walks nothing: none transfers
+    (runs / qd_comparison.ENGINE_WALKS).unlink()
+    assert qd_comparison.main([*report, "--engine", str(still)]) == 0
+    columns = transfer_column((tmp_path / "docs" / "quality_diversity.md").read_text())
+    assert {t for _, t in columns.values()} == {"0"}
+    with pytest.raises(SystemExit):
+        qd_comparison.main(["--root", str(runs), "--engine", str(still), *TINY])

@@ -49,6 +49,7 @@ def test_rates_and_projection_come_from_the_generations_own_wall_times(tmp_path)
 
 
 def test_only_the_given_conditions_count_and_bullets_cover_finished_runs(tmp_path, monkeypatch):
+    monkeypatch.setattr(speed, "TWO_CORES", tmp_path / "none.json")  # no run on 2 cores
     _record(tmp_path / "3d_ff" / "seed_0", 0, [3600.0] * 4, [10] * 4)
     _record(tmp_path / "2d_ff" / "seed_1", 1, [900.0, 1800.0, 900.0, 900.0], [10] * 4)
     assert [r["run"] for r in speed.recorded_evolutions(tmp_path, ("2d_ff",))] == ["2d_ff seed 1"]
@@ -68,3 +69,41 @@ def test_only_the_given_conditions_count_and_bullets_cover_finished_runs(tmp_pat
     assert any("one run per core): **4.00 h** of wall time; at its median" in b for b in bullets)
     assert any("alone): **1.25 h**" in b for b in bullets)
     assert "| alone |" in "\n".join(speed.recorded_section(apart))
+
+
+def _metrics(folder: Path, rows: list[tuple[float, float, float, float]]) -> None:
+    """metrics.csv of (best, mean, std, wall_time) per generation."""
+    folder.mkdir(parents=True)
+    lines = ["generation,best,mean,std,wall_time"]
+    lines += [f"{g},{b},{m},{s},{w}" for g, (b, m, s, w) in enumerate(rows)]
+    (folder / "metrics.csv").write_text("\n".join(lines) + "\n")
+
+
+def test_a_run_evolved_again_is_compared_generation_by_generation(tmp_path, monkeypatch):
+    first = [(1.0, 0.5, 0.1, 40.0), (2.0, 0.6, 0.2, 40.0), (3.0, 0.7, 0.3, 20.0)]
+    _metrics(tmp_path / "3d_ff" / "seed_0", first)
+    _metrics(tmp_path / "ga" / "seed_0", [(b, m, s, w / 2) for b, m, s, w in first[:2]])
+    _metrics(tmp_path / "3d_ff" / "seed_1", first)
+    _metrics(tmp_path / "ga" / "seed_1", [(1.0, 0.5, 0.1, 10.0), (2.0, 0.61, 0.2, 10.0)])
+    monkeypatch.setattr(speed, "REPEATED", tmp_path / "ga")
+    monkeypatch.setattr(speed, "ORIGINALS", tmp_path / "3d_ff")
+    same, other = speed.repeated_runs()
+    assert (same["run"], same["generations"], same["same"]) == ("3d_ff seed 0", 2, True)
+    assert same["original_h"] == pytest.approx(80 / 3600)
+    assert same["again_h"] == pytest.approx(40 / 3600)
+    assert other["same"] is False  # its second generation's mean differs
+    # a run's start on 2 cores: projected by the reference's share of time in those
+    # generations (80 of 100 s)
+    measured = {"what": "w", "date": "d", "commit": "c", "command": "x", "wall_s": 40.0,
+                "cpu_s": 70.0, "reference": str(tmp_path / "3d_ff" / "seed_0"),
+                "generations": [dict(zip(("best", "mean", "std"), map(str, row[:3])))
+                                for row in first[:2]]}
+    path = tmp_path / "two_cores.json"
+    path.write_text(json.dumps(measured))
+    run = speed.two_core_run(path)
+    assert run["share"] == pytest.approx(0.8) and run["projected_h"] == pytest.approx(50 / 3600)
+    measured["generations"][1]["best"] = "2.5"
+    path.write_text(json.dumps(measured))
+    with pytest.raises(ValueError, match="not those of"):
+        speed.two_core_run(path)
+    assert speed.two_core_run(tmp_path / "missing.json") is None
