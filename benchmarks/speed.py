@@ -327,13 +327,13 @@ def recorded_bullets(recorded: list[dict]) -> list[str]:
                     f"generations, {how}): **{wall} h** of wall time"
                     + (f" each; at each run's median generation {median} h" if len(done) > 1
                        else f"; at its median generation {median} h") + " (table below).")
-    two_cores = two_core_run()
-    if two_cores is not None:
-        lines.append(f"- A paper-size 3D run on 2 cores with nothing beside it (the evolution "
-                     f"of `{two_cores['reference']}`, its first "
-                     f"{two_cores['generations_done']} generations measured): "
-                     f"**{two_cores['projected_h']:.2f} h** projected (section \"The same "
-                     "evolution again, and on 2 cores\").")
+    two_cores = two_core_runs()
+    if two_cores:
+        lines.append("- Paper-size 3D runs on 2 cores with nothing beside them, projected from "
+                     "their first generations measured: "
+                     + ", ".join(f"**{r['projected_h']:.2f} h** (`{r['reference']}`, "
+                                 f"{r['generations_done']} generations)" for r in two_cores)
+                     + " (section \"The same evolution again, and on 2 cores\").")
     return lines
 
 
@@ -382,32 +382,36 @@ def repeated_runs() -> list[dict]:
     return out
 
 
-def two_core_run(path: Path | None = None) -> dict | None:
-    """The measured start of a paper run on 2 cores (`path`, default TWO_CORES), projected to
-    all its generations by its reference run's share of time in those generations; None
-    without the file.
+def two_core_runs(path: Path | None = None) -> list[dict]:
+    """The measured starts of paper runs on 2 cores (`path`, default TWO_CORES: a list of
+    measurements), each projected to all its generations by its reference run's share of
+    time in those generations ([] without the file).
 
     Raises:
-      ValueError: the measured generations are not the reference run's evolution.
+      ValueError: a measurement's generations are not its reference run's evolution.
     """
     path = TWO_CORES if path is None else path
     if not path.is_file():
-        return None
-    measured = json.loads(path.read_text())
-    reference = _metrics(ROOT / measured["reference"])
-    rows = measured["generations"]
-    if not _same_evolution(rows, reference):
-        raise ValueError(f"{path}: its generations are not those of {measured['reference']}")
-    share = _hours(reference[: len(rows)]) / _hours(reference)
-    return {**measured, "generations_done": len(rows), "planned": len(reference),
-            "share": share, "projected_h": measured["wall_s"] / share / 3600}
+        return []
+    out = []
+    for measured in json.loads(path.read_text()):
+        reference = _metrics(ROOT / measured["reference"])
+        rows = measured["generations"]
+        if not _same_evolution(rows, reference):
+            raise ValueError(f"{path}: {measured['what']}: its generations are not those of "
+                             f"{measured['reference']}")
+        share = _hours(reference[: len(rows)]) / _hours(reference)
+        wall = _hours(rows) * 3600
+        out.append({**measured, "generations_done": len(rows), "planned": len(reference),
+                    "wall_s": wall, "share": share, "projected_h": wall / share / 3600})
+    return out
 
 
 def repeated_section() -> list[str]:
-    """The section on records' runs evolved again: their wall times, and a run's start on 2
-    cores with nothing beside it."""
-    repeated, two_cores = repeated_runs(), two_core_run()
-    if not repeated and two_cores is None:
+    """The section on records' runs evolved again: their wall times, and runs' starts on 2
+    cores with nothing beside them."""
+    repeated, two_cores = repeated_runs(), two_core_runs()
+    if not repeated and not two_cores:
         return []
     lines = ["## The same evolution again, and on 2 cores", "",
              "A run's recorded wall time depends on what else the machine did meanwhile. The "
@@ -422,15 +426,20 @@ def repeated_section() -> list[str]:
     lines += [f"| {r['run']} | {r['generations']} | {'yes' if r['same'] else 'no'} | "
               f"{r['original_h']:.2f} | {r['again_h']:.2f} | "
               f"{r['original_h'] / r['again_h']:.2f} |" for r in repeated]
-    if two_cores is not None:
-        lines += ["", f"On 2 cores: {two_cores['what']} ({two_cores['date']}, commit "
-                  f"{two_cores['commit']}; `{two_cores['command']}`): "
-                  f"{two_cores['generations_done']} generations, the same evolution as "
-                  f"`{two_cores['reference']}`, in {two_cores['wall_s']:.0f} s of wall time "
-                  f"and {two_cores['cpu_s']:.0f} CPU s. Those generations took "
-                  f"{two_cores['share']:.1%} of that run's time, so all "
-                  f"{two_cores['planned']} at this rate: **{two_cores['projected_h']:.2f} h** "
-                  "on 2 cores."]
+    if two_cores:
+        lines += ["", "On 2 cores, nothing else running on the machine (`mjregen evolve ... "
+                  "--backend thread --workers 2` under `/usr/bin/time -v`; "
+                  "`benchmarks/paper_run_2_cores.json`): each measurement is the same "
+                  "evolution as its reference run in every generation measured, and is "
+                  "projected to all of the run's generations by the reference's share of time "
+                  "in those generations. CPU: the whole process's (start-up, and a generation "
+                  "stopped part way, included).", "",
+                  "| measured | date, commit | reference (its share of time in those generations) "
+                  "| generations' wall time (s) | process CPU / wall (s) | all generations on 2 cores (h) |",
+                  "|---|---|---|---|---|---|"]
+        lines += [f"| {r['what']} | {r['date']}, {r['commit']} | `{r['reference']}` "
+                  f"({r['share']:.1%}) | {r['wall_s']:.0f} | {r['process_cpu_s']:.0f} / "
+                  f"{r['process_wall_s']:.0f} | **{r['projected_h']:.2f}** |" for r in two_cores]
     return lines
 
 

@@ -94,16 +94,18 @@ def test_a_run_evolved_again_is_compared_generation_by_generation(tmp_path, monk
     assert other["same"] is False  # its second generation's mean differs
     # a run's start on 2 cores: projected by the reference's share of time in those
     # generations (80 of 100 s)
-    measured = {"what": "w", "date": "d", "commit": "c", "command": "x", "wall_s": 40.0,
-                "cpu_s": 70.0, "reference": str(tmp_path / "3d_ff" / "seed_0"),
-                "generations": [dict(zip(("best", "mean", "std"), map(str, row[:3])))
-                                for row in first[:2]]}
+    measured = {"what": "w", "date": "d", "commit": "c", "command": "x",
+                "process_wall_s": 45.0, "process_cpu_s": 80.0,
+                "reference": str(tmp_path / "3d_ff" / "seed_0"),
+                "generations": [{**dict(zip(("best", "mean", "std"), map(str, row[:3]))),
+                                 "wall_time": "20.0"} for row in first[:2]]}
     path = tmp_path / "two_cores.json"
-    path.write_text(json.dumps(measured))
-    run = speed.two_core_run(path)
-    assert run["share"] == pytest.approx(0.8) and run["projected_h"] == pytest.approx(50 / 3600)
+    path.write_text(json.dumps([measured]))
+    (run,) = speed.two_core_runs(path)
+    assert run["wall_s"] == pytest.approx(40.0) and run["share"] == pytest.approx(0.8)
+    assert run["projected_h"] == pytest.approx(50 / 3600)
     measured["generations"][1]["best"] = "2.5"
-    path.write_text(json.dumps(measured))
-    with pytest.raises(ValueError, match="not those of"):
-        speed.two_core_run(path)
-    assert speed.two_core_run(tmp_path / "missing.json") is None
+    path.write_text(json.dumps([measured]))
+    with pytest.raises(ValueError, match="w: its generations are not those of"):
+        speed.two_core_runs(path)
+    assert speed.two_core_runs(tmp_path / "missing.json") == []
