@@ -257,6 +257,16 @@ def _shown(folder: Path) -> str:
         return str(folder)
 
 
+def _mean_row(method: str, rows: list[dict]) -> str:
+    """The table row of `method`'s means over its seeds' `rows`."""
+    values = {k: np.mean([r[k] for r in rows]) for k in ("best", "qd_score", "coverage",
+                                                         "walking")}
+    transfer = [r["transfer"] for r in rows]
+    return (f"| **{method} mean** | | | {values['best']:.2f} | {values['qd_score']:.0f} | "
+            f"{values['coverage']:.1%} | {values['walking']:.1f} | "
+            f"{'–' if None in transfer else f'{np.mean(transfer):.1f}'} | |")
+
+
 def write_markdown(args: argparse.Namespace, rows: dict, farthest: float) -> None:
     config = json.loads((args.root / "map-elites" / f"seed_{args.seeds[0]}" / "config.json").read_text())
     ga_config = json.loads((args.root / "ga" / f"seed_{args.seeds[0]}" / "config.json").read_text())
@@ -295,14 +305,7 @@ def write_markdown(args: argparse.Namespace, rows: dict, farthest: float) -> Non
                      f"{r['qd_score']:.0f} | {r['coverage']:.1%} | {r['walking']} | "
                      f"{'–' if r['transfer'] is None else r['transfer']} | "
                      f"{r['distance']:.2f} |")
-    for method in METHODS:
-        values = {k: np.array([rows[(method, s)][k] for s in args.seeds]) for k in
-                  ("best", "qd_score", "coverage", "walking")}
-        transfer = [rows[(method, s)]["transfer"] for s in args.seeds]
-        lines.append(f"| **{method} mean** | | | {values['best'].mean():.2f} | "
-                     f"{values['qd_score'].mean():.0f} | {values['coverage'].mean():.1%} | "
-                     f"{values['walking'].mean():.1f} | "
-                     f"{'–' if None in transfer else f'{np.mean(transfer):.1f}'} | |")
+    lines += [_mean_row(method, [rows[(method, s)] for s in args.seeds]) for method in METHODS]
     if any(r["evaluations"] < args.pop * args.gens for r in rows.values()):
         lines += ["", "Runs under way count the evaluations they have made; the curves end where "
                   "the shortest run of each method stands."]
