@@ -848,6 +848,9 @@ def _doc_sections(args: argparse.Namespace) -> list[str]:
     if args.backends:
         sections += _sibling("evolution").backends_section(
             json.loads(args.backends.read_text()))
+    if args.phases:
+        sections += _sibling("generation_phases").markdown_section(
+            json.loads(args.phases.read_text()))
     if args.gpu:
         sections += _sibling("batched_bonds").markdown_section(
             json.loads(args.gpu.read_text()))
@@ -874,6 +877,8 @@ def main() -> None:
                              "--throughput)")
     parser.add_argument("--backends", type=Path,
                         help="JSON of benchmarks/evolution.py backends, for --doc")
+    parser.add_argument("--phases", type=Path,
+                        help="JSON of benchmarks/generation_phases.py, for --doc")
     parser.add_argument("--gpu", type=Path, help="JSON of benchmarks/batched_bonds.py, for --doc")
     parser.add_argument("--settle-rest", type=Path, nargs="+",
                         help="JSONs of benchmarks/settle_rest.py (one per --body), for --doc")
