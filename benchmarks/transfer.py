@@ -60,6 +60,7 @@ from pathlib import Path
 
 import numpy as np
 
+from mjregen.cli.common import add_engine_robot_arguments, named_paths
 from mjregen.errors import MjregenError
 from mjregen.fileio import atomic_open
 from mjregen.grid import Robot
@@ -130,9 +131,7 @@ def record(manifest: Path, where: list, row: Transfer, starts: int, physics: Phy
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--voxelyze", type=Path, required=True,
-                        help="folder of the paper's engine and its vxa.py")
-    parser.add_argument("robots", nargs="*", help="robot files (.npy) or NAME=PATH")
+    add_engine_robot_arguments(parser, nargs="*")
     parser.add_argument("--starts", type=int, default=10)
     parser.add_argument("--settle", type=float,
                         help="s of settle of the ROBOTS given (default: the paper's for their "
@@ -164,11 +163,11 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         kept = read_measurements(args.json) if args.json is not None else {}
+        given_robots = named_paths(args.robots)
     except ValueError as error:
         parser.error(str(error))
     given = Physics().replace(settle_time=args.settle, measured_time=args.duration)
-    todo = [(name or Path(path).stem, Path(path), None, None, given)
-            for name, _, path in (item.rpartition("=") for item in args.robots)]
+    todo = [(name, path, None, None, given) for name, path in given_robots]
     from mjregen.experiments.paper import best_robots, finished_runs_robots
 
     for root, pick, new_only in ((args.best_of, best_robots, False),

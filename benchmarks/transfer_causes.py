@@ -40,6 +40,7 @@ from pathlib import Path
 
 import numpy as np
 
+from mjregen.cli.common import add_engine_robot_arguments, named_paths
 from mjregen.errors import MjregenError
 from mjregen.grid import Robot
 from mjregen.physics import PAPER_TIMES, Physics
@@ -130,9 +131,7 @@ def markdown(rows: list[dict]) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--voxelyze", type=Path, required=True,
-                        help="folder of the paper's engine and its vxa.py")
-    parser.add_argument("robots", nargs="+", help="3D robot files (.npy) or NAME=PATH")
+    add_engine_robot_arguments(parser, robots_help="3D robot files (.npy) or NAME=PATH")
     parser.add_argument("--starts", type=int, default=5, help="mjregen starts per cell")
     parser.add_argument("--steps", type=float, nargs="+", default=[1.0, 0.5, 0.25],
                         help="factors of both simulators' default time step")
@@ -148,11 +147,11 @@ def main(argv: list[str] | None = None) -> int:
     try:
         engine = PaperEngine(args.voxelyze)
         rows = []
-        for name, _, path in (item.rpartition("=") for item in args.robots):
+        for name, path in named_paths(args.robots):
             robot = Robot.load(path)
             if robot.dim != 3:
                 parser.error(f"{path}: a {robot.dim}D robot; the engine runs 3D grids")
-            rows.append({"name": name or Path(path).stem, "voxels": robot.n_voxels,
+            rows.append({"name": name, "voxels": robot.n_voxels,
                          "mjregen": mjregen_walks(robot, args.starts, args.steps),
                          "engine": engine_walks(robot, engine, args.steps)})
             if args.horizons:

@@ -21,6 +21,7 @@ import json
 import sys
 from pathlib import Path
 
+from mjregen.cli.common import add_engine_robot_arguments, named_paths
 from mjregen.errors import MjregenError
 from mjregen.grid import Robot
 from mjregen.physics import Physics
@@ -39,9 +40,7 @@ def markdown(name: str, mine: list, theirs: list) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--voxelyze", type=Path, required=True,
-                        help="folder of the paper's engine and its vxa.py")
-    parser.add_argument("robots", nargs="+", help="3D robot files (.npy) or NAME=PATH")
+    add_engine_robot_arguments(parser, robots_help="3D robot files (.npy) or NAME=PATH")
     parser.add_argument("--times", type=float, nargs="+", default=[0.1, 0.2, 0.3, 0.4, 0.55],
                         help="s from the start, after the 0.05 s settle, increasing")
     parser.add_argument("--start-shift", type=float, default=0.0,
@@ -53,13 +52,12 @@ def main(argv: list[str] | None = None) -> int:
     try:
         engine = PaperEngine(args.voxelyze)
         physics = Physics().replace(start_shift=args.start_shift)
-        for name, _, path in (item.rpartition("=") for item in args.robots):
+        for name, path in named_paths(args.robots):
             robot = Robot.load(path)
             mine = mjregen_timeline(robot, args.times, physics=physics)
             theirs = engine_timeline(engine, robot, args.times)
-            name = name or Path(path).stem
             print(markdown(name, mine, theirs), flush=True)
-            rows.append({"name": name, "path": path, "mjregen": [p.to_json() for p in mine],
+            rows.append({"name": name, "path": str(path), "mjregen": [p.to_json() for p in mine],
                          "engine": [p.to_json() for p in theirs]})
     except (MjregenError, OSError, ValueError) as error:
         parser.error(str(error))

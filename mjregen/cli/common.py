@@ -62,6 +62,31 @@ def _whole(text: str, name: str) -> int:
         raise argparse.ArgumentTypeError(f"{name} must be a whole number, got {text!r}") from None
 
 
+def add_engine_robot_arguments(parser: argparse.ArgumentParser, *, nargs: str = "+",
+                               robots_help: str = "robot files (.npy) or NAME=PATH") -> None:
+    """``--voxelyze DIR`` (the paper's engine) and the positional ROBOT arguments of the
+    commands that walk robots in both simulators (read them with `named_paths`)."""
+    parser.add_argument("--voxelyze", type=Path, required=True,
+                        help="folder of the paper's engine and its vxa.py")
+    parser.add_argument("robots", nargs=nargs, help=robots_help)
+
+
+def named_paths(items: list[str]) -> list[tuple[str, Path]]:
+    """(name, path) of each ``NAME=PATH`` (split at the last "=") or ``PATH`` (named by
+    its file's stem).
+
+    Raises:
+      ValueError: an item names no file (``NAME=``).
+    """
+    pairs = []
+    for item in items:
+        name, _, path = item.rpartition("=")
+        if not path:
+            raise ValueError(f"{item!r} names no robot file (give NAME=PATH or PATH)")
+        pairs.append((name or Path(path).stem, Path(path)))
+    return pairs
+
+
 def material_counts(robot: Robot) -> dict[str, int]:
     """Voxels per material, by lower-case name, empty left out."""
     return {m.name.lower(): n for m, n in robot.material_counts().items() if m != Material.EMPTY}
