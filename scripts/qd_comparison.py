@@ -110,7 +110,7 @@ def run_all(args: argparse.Namespace) -> None:
                          cells=default_cells(DESCRIPTORS, (nca.grid_size,) * 3))
     with make_backend("process", workers=args.workers) as backend:
         for seed in args.seeds:
-            for method in METHODS:
+            for method in args.methods:
                 out = args.root / method / f"seed_{seed}"
                 # each run's starts seeded by its seed, as `mjregen evolve` seeds them
                 task = LocomotionTask(nca=nca, physics=Physics(), start_seed=seed)
@@ -332,6 +332,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--gens", type=int, default=40, help="generations (iterations)")
     parser.add_argument("--emitters", type=int, default=5, help="MAP-Elites emitters")
     parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--methods", nargs="+", choices=METHODS, default=list(METHODS),
+                        help="the methods to run, each seed in this order (default: both)")
     parser.add_argument("--report", action="store_true", help="write the report (no runs)")
     parser.add_argument("--docs", type=Path, default=ROOT_DOCS,
                         help="folder of the report: quality_diversity.md and its figures "
@@ -343,6 +345,8 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.engine is not None and not args.report:
         parser.error("--engine goes with --report")
+    if args.report and args.methods != list(METHODS):
+        parser.error("--methods chooses the runs to make; a report compares both")
     if args.report:
         report(args)
     else:

@@ -128,3 +128,12 @@ def test_walking_elites_are_walked_in_the_engine_once_and_counted(tmp_path):
     assert {t for _, t in columns.values()} == {"0"}
     with pytest.raises(SystemExit):
         qd_comparison.main(["--root", str(runs), "--engine", str(still), *TINY])
+
+
+def test_methods_choose_the_runs_made_and_a_report_refuses_them(tmp_path):
+    runs = tmp_path / "runs"
+    assert qd_comparison.main(["--root", str(runs), *TINY, "--methods", "ga"]) == 0
+    assert (runs / "ga" / "seed_0" / "metrics.csv").is_file()
+    assert not (runs / "map-elites").exists()
+    with pytest.raises(SystemExit):
+        qd_comparison.main(["--root", str(runs), "--report", *TINY, "--methods", "ga"])
