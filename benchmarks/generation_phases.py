@@ -25,16 +25,17 @@ import os
 import statistics
 import threading
 import time
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
 from mjregen.growth.nca import grow
-from mjregen.search.backends import Backend, make_backend
+from mjregen.search.backends import Backend, Outcome, make_backend
 from mjregen.search.ga import GeneticAlgorithm
 from mjregen.search.run_folder import load_checkpoint, read_config
-from mjregen.tasks.evaluation import evaluate_robot
+from mjregen.tasks.evaluation import RobotEvaluation, RobotJob, evaluate_robot
 from mjregen.tasks.locomotion import LocomotionTask
 
 
@@ -51,30 +52,28 @@ class JobTime:
     voxels: int
 
 
-@dataclass(frozen=True)
-class Timed:
-    """`evaluate_robot`, recording its `JobTime` with the result (picklable: processes)."""
-
-    def __call__(self, job):
-        wall, cpu = time.time(), time.thread_time()
-        result = evaluate_robot(job)
-        return result, JobTime(f"{os.getpid()}:{threading.get_ident()}", wall, time.time(),
-                               time.thread_time() - cpu, int(np.count_nonzero(job.grid)))
+def timed_evaluation(job: RobotJob) -> tuple[RobotEvaluation, JobTime]:
+    """`evaluate_robot` of `job` and its `JobTime` (a module function: processes pickle it)."""
+    wall, cpu = time.time(), time.thread_time()
+    result = evaluate_robot(job)
+    return result, JobTime(f"{os.getpid()}:{threading.get_ident()}", wall, time.time(),
+                           time.thread_time() - cpu, int(np.count_nonzero(job.grid)))
 
 
 class RecordingBackend(Backend):
-    """Runs `Timed` jobs on `inner` and keeps their times (one list per map call)."""
+    """Runs `evaluate_robot` jobs on `inner` as `timed_evaluation` and keeps their times
+    (``maps``: wall start, wall end and the jobs' times of each map call)."""
 
     def __init__(self, inner: Backend) -> None:
         super().__init__(inner.workers)
         self.inner = inner
         self.maps: list[tuple[float, float, list[JobTime]]] = []
 
-    def map(self, fn, items):
+    def map(self, fn: Callable, items: Sequence[RobotJob]) -> list[Outcome]:
         if fn is not evaluate_robot:
             raise ValueError("only evaluate_robot jobs are recorded")
         start = time.time()
-        outcomes = self.inner.map(Timed(), items)
+        outcomes = self.inner.map(timed_evaluation, items)
         end = time.time()
         self.maps.append((start, end, [o.value[1] for o in outcomes if o.ok]))
         return [replace(o, value=o.value[0]) if o.ok else o for o in outcomes]

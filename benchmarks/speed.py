@@ -269,6 +269,12 @@ RUN_SETTINGS = {  # runs that ran otherwise than their records folder's others
 }
 
 
+def _metrics(folder: Path) -> list[dict]:
+    """The rows of a run folder's metrics.csv (strings, by column)."""
+    with open(folder / "metrics.csv", newline="") as handle:
+        return list(csv.DictReader(handle))
+
+
 def recorded_evolutions(root: Path, conditions: tuple[str, ...] = ("3d_ff", "3d_lstm"),
                         how: str = "") -> list[dict]:
     """Per paper-size evolution of `conditions` kept in `root` (<condition>/seed_<n>):
@@ -280,8 +286,7 @@ def recorded_evolutions(root: Path, conditions: tuple[str, ...] = ("3d_ff", "3d_
         if condition not in conditions:
             continue
         for info in infos:
-            with open(info.path / "metrics.csv", newline="") as handle:
-                rows = list(csv.DictReader(handle))
+            rows = _metrics(info.path)
             simulated = sum(int(row["distinct"]) for row in rows)
             median_s = statistics.median(float(row["wall_time"]) for row in rows)
             population = info.config["ga"]["population"]
@@ -346,12 +351,8 @@ def _span(values: list[float]) -> str:
 REPEATED = ROOT / "records" / "paper" / "qd" / "ga"  # the QD comparison's GA: 3d_ff seeds again
 ORIGINALS = ROOT / "records" / "paper" / "3d_ff"
 TWO_CORES = Path(__file__).with_name("paper_run_2_cores.json")  # a paper run's start on 2 cores
+REPEATED_SETTINGS = {"seed_2": "2 worker processes, alone"}  # how a rerun ran, if not beside another
 SAME_COLUMNS = ("best", "mean", "std")  # equal in every generation: the same evolution
-
-
-def _metrics(folder: Path) -> list[dict]:
-    with open(folder / "metrics.csv", newline="") as handle:
-        return list(csv.DictReader(handle))
 
 
 def _same_evolution(rows: list[dict], reference: list[dict]) -> bool:
@@ -378,6 +379,7 @@ def repeated_runs() -> list[dict]:
         n = min(len(again), len(first))
         out.append({"run": f"3d_ff {rerun.name.replace('_', ' ')}", "generations": n,
                     "original_h": _hours(first[:n]), "again_h": _hours(again[:n]),
+                    "how": REPEATED_SETTINGS.get(rerun.name, "one run per core, beside another"),
                     "same": _same_evolution(again[:n], first)})
     return out
 
@@ -407,6 +409,15 @@ def two_core_runs(path: Path | None = None) -> list[dict]:
     return out
 
 
+def _workers(command: str) -> str:
+    """"2 threads" or "2 processes": the workers of a measured run's command line (the
+    evolve command's --backend default and the QD comparison's backend: processes)."""
+    words = command.split()
+    count = words[words.index("--workers") + 1] if "--workers" in words else "?"
+    kind = words[words.index("--backend") + 1] if "--backend" in words else "process"
+    return f"{count} {'threads' if kind == 'thread' else 'processes'}"
+
+
 def repeated_section() -> list[str]:
     """The section on records' runs evolved again: their wall times, and runs' starts on 2
     cores with nothing beside them."""
@@ -416,30 +427,32 @@ def repeated_section() -> list[str]:
     lines = ["## The same evolution again, and on 2 cores", "",
              "A run's recorded wall time depends on what else the machine did meanwhile. The "
              "GA runs of the quality-diversity comparison evolve 3d_ff seeds 0-2 of "
-             "`records/paper/` again, days later with the code of their day, one run per core "
-             "beside another run; where their best, mean and std fitness equal the first "
-             "run's in every generation, the two are the same evolution and only the time "
-             "differs (what slowed the first run, other work beside it or the code of its "
-             "day, the table does not tell).", "",
-             "| run | generations compared | same evolution | first run (h) | again (h) | first / again |",
-             "|---|---|---|---|---|---|"]
+             "`records/paper/` again, days later with the code of their day (the first runs: "
+             "one run per core, beside another); where their best, mean and std fitness equal "
+             "the first run's in every generation, the two are the same evolution and only the "
+             "time differs (what slowed the first run, other work beside it, the machine's "
+             "speed that day or the code of its day, the table does not tell).", "",
+             "| run | generations compared | same evolution | first run (h) | again (h) | how it ran again | first / again |",
+             "|---|---|---|---|---|---|---|"]
     lines += [f"| {r['run']} | {r['generations']} | {'yes' if r['same'] else 'no'} | "
-              f"{r['original_h']:.2f} | {r['again_h']:.2f} | "
+              f"{r['original_h']:.2f} | {r['again_h']:.2f} | {r['how']} | "
               f"{r['original_h'] / r['again_h']:.2f} |" for r in repeated]
     if two_cores:
-        lines += ["", "On 2 cores, nothing else running on the machine (`mjregen evolve ... "
-                  "--backend thread --workers 2` under `/usr/bin/time -v`; "
+        lines += ["", "On 2 cores, nothing else running on the machine (each measurement's "
+                  "command, under `/usr/bin/time -v`, is in "
                   "`benchmarks/paper_run_2_cores.json`): each measurement is the same "
-                  "evolution as its reference run in every generation measured, and is "
-                  "projected to all of the run's generations by the reference's share of time "
-                  "in those generations. CPU: the whole process's (start-up, and a generation "
-                  "stopped part way, included).", "",
-                  "| measured | date, commit | reference (its share of time in those generations) "
-                  "| generations' wall time (s) | process CPU / wall (s) | all generations on 2 cores (h) |",
-                  "|---|---|---|---|---|---|"]
-        lines += [f"| {r['what']} | {r['date']}, {r['commit']} | `{r['reference']}` "
-                  f"({r['share']:.1%}) | {r['wall_s']:.0f} | {r['process_cpu_s']:.0f} / "
-                  f"{r['process_wall_s']:.0f} | **{r['projected_h']:.2f}** |" for r in two_cores]
+                  "evolution as its reference run in every generation measured, and a part of a "
+                  "run is projected to all of the run's generations by the reference's share of "
+                  "time in those generations. CPU: the whole process's and its worker "
+                  "processes' (start-up, and a generation stopped part way, included).", "",
+                  "| measured | workers | date, commit | reference (its share of time in those "
+                  "generations) | generations' wall time (s) | process CPU / wall (s) | all "
+                  "generations on 2 cores (h) |",
+                  "|---|---|---|---|---|---|---|"]
+        lines += [f"| {r['what']} | {_workers(r['command'])} | {r['date']}, {r['commit']} | "
+                  f"`{r['reference']}` ({r['share']:.1%}) | {r['wall_s']:.0f} | "
+                  f"{r['process_cpu_s']:.0f} / {r['process_wall_s']:.0f} | "
+                  f"**{r['projected_h']:.2f}** |" for r in two_cores]
     return lines
 
 

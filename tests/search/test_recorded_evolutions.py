@@ -92,6 +92,10 @@ def test_a_run_evolved_again_is_compared_generation_by_generation(tmp_path, monk
     assert same["original_h"] == pytest.approx(80 / 3600)
     assert same["again_h"] == pytest.approx(40 / 3600)
     assert other["same"] is False  # its second generation's mean differs
+    assert same["how"] == "one run per core, beside another"
+    monkeypatch.setitem(speed.REPEATED_SETTINGS, "seed_1", "2 worker processes, alone")
+    assert speed.repeated_runs()[1]["how"] == "2 worker processes, alone"
+    assert "| 2 worker processes, alone |" in "\n".join(speed.repeated_section())
     # a run's start on 2 cores: projected by the reference's share of time in those
     # generations (80 of 100 s)
     measured = {"what": "w", "date": "d", "commit": "c", "command": "x",
@@ -109,3 +113,10 @@ def test_a_run_evolved_again_is_compared_generation_by_generation(tmp_path, monk
     with pytest.raises(ValueError, match="w: its generations are not those of"):
         speed.two_core_runs(path)
     assert speed.two_core_runs(tmp_path / "missing.json") == []
+
+
+def test_a_measured_runs_workers_are_read_from_its_command():
+    assert speed._workers("mjregen evolve --seed 7 --backend thread --workers 2") == "2 threads"
+    assert speed._workers("python scripts/qd_comparison.py --seeds 2 --workers 2") == \
+        "2 processes"  # the comparison's backend, and evolve's default
+    assert speed._workers("mjregen evolve --backend process --workers 2") == "2 processes"
