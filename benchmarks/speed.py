@@ -334,12 +334,20 @@ def recorded_bullets(recorded: list[dict]) -> list[str]:
                        else f"; at its median generation {median} h") + " (table below).")
     two_cores = two_core_runs()
     if two_cores:
-        lines.append("- Paper-size 3D runs on 2 cores with nothing beside them, projected from "
-                     "their first generations measured: "
+        lines.append("- Paper-size 3D runs on 2 cores with nothing beside them (whole, or "
+                     "projected from their first generations measured): "
                      + ", ".join(f"**{r['projected_h']:.2f} h** (`{r['reference']}`, "
-                                 f"{r['generations_done']} generations)" for r in two_cores)
+                                 f"{_measured_part(r)}, {_workers(r['command'])})"
+                                 for r in two_cores)
                      + " (section \"The same evolution again, and on 2 cores\").")
     return lines
+
+
+def _measured_part(run: dict) -> str:
+    """"measured whole" or "N generations measured" of a `two_core_runs` entry."""
+    if run["generations_done"] == run["planned"]:
+        return "measured whole"
+    return f"{run['generations_done']} generations measured"
 
 
 def _span(values: list[float]) -> str:

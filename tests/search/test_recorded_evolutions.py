@@ -120,3 +120,6 @@ def test_a_measured_runs_workers_are_read_from_its_command():
     assert speed._workers("python scripts/qd_comparison.py --seeds 2 --workers 2") == \
         "2 processes"  # the comparison's backend, and evolve's default
     assert speed._workers("mjregen evolve --backend process --workers 2") == "2 processes"
+    assert speed._measured_part({"generations_done": 300, "planned": 300}) == "measured whole"
+    assert speed._measured_part({"generations_done": 65, "planned": 300}) == \
+        "65 generations measured"
