@@ -184,7 +184,8 @@ def markdown_section(measurements: list[dict]) -> list[str]:
         label = (f"{measured['generation']} of {run} ({rows[0]['jobs']} robots walked, "
                  f"median {voxels:.0f} voxels)")
         for index, row in enumerate(rows):
-            efficiency = "—" if serial is None else f"{serial / row['wall_s'] / row['workers']:.2f}"
+            efficiency = ("—" if serial is None
+                          else f"{serial / row['wall_s'] / row['workers']:.2f}")
             lines.append(
                 f"| {label if index == 0 else ''} | {row['backend']} | {row['wall_s']:.1f} "
                 f"({', '.join(f'{w:.1f}' for w in row['wall_s_rounds'])}) | "

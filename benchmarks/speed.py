@@ -359,7 +359,7 @@ def _span(values: list[float]) -> str:
 REPEATED = ROOT / "records" / "paper" / "qd" / "ga"  # the QD comparison's GA: 3d_ff seeds again
 ORIGINALS = ROOT / "records" / "paper" / "3d_ff"
 TWO_CORES = Path(__file__).with_name("paper_run_2_cores.json")  # a paper run's start on 2 cores
-REPEATED_SETTINGS = {"seed_2": "2 worker processes, alone"}  # how a rerun ran, if not beside another
+REPEATED_SETTINGS = {"seed_2": "2 worker processes, alone"}  # reruns not beside another run
 SAME_COLUMNS = ("best", "mean", "std")  # equal in every generation: the same evolution
 
 
@@ -440,7 +440,8 @@ def repeated_section() -> list[str]:
              "the first run's in every generation, the two are the same evolution and only the "
              "time differs (what slowed the first run, other work beside it, the machine's "
              "speed that day or the code of its day, the table does not tell).", "",
-             "| run | generations compared | same evolution | first run (h) | again (h) | how it ran again | first / again |",
+             "| run | generations compared | same evolution | first run (h) | again (h) "
+             "| how it ran again | first / again |",
              "|---|---|---|---|---|---|---|"]
     lines += [f"| {r['run']} | {r['generations']} | {'yes' if r['same'] else 'no'} | "
               f"{r['original_h']:.2f} | {r['again_h']:.2f} | {r['how']} | "
