@@ -38,6 +38,7 @@ from pathlib import Path
 
 import numpy as np
 
+from mjregen import interrupt
 from mjregen.experiments.engine_walks import read_kept, walk_new
 from mjregen.grid import Robot
 from mjregen.growth.nca import NCAConfig
@@ -349,8 +350,16 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("--methods chooses the runs to make; a report compares both")
     if args.report:
         report(args)
-    else:
+        return 0
+    restore = interrupt.install()  # also where the shell started this script ignoring SIGINT
+    try:
         run_all(args)
+    except KeyboardInterrupt:
+        print("qd_comparison: interrupted; every run keeps its last finished generation: run "
+              "the same command again to resume", file=sys.stderr)
+        return 130
+    finally:
+        restore()
     return 0
 
 

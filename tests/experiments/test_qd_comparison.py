@@ -137,3 +137,12 @@ def test_methods_choose_the_runs_made_and_a_report_refuses_them(tmp_path):
     assert not (runs / "map-elites").exists()
     with pytest.raises(SystemExit):
         qd_comparison.main(["--root", str(runs), "--report", *TINY, "--methods", "ga"])
+
+
+def test_an_interrupt_stops_the_runs_with_a_resume_hint(tmp_path, monkeypatch, capsys):
+    def interrupted(args):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(qd_comparison, "run_all", interrupted)
+    assert qd_comparison.main(["--root", str(tmp_path), *TINY]) == 130
+    assert "run the same command again to resume" in capsys.readouterr().err
