@@ -69,7 +69,6 @@ case "${1:-}" in
         for seed in 0 1 2; do regen biped ff "$seed"; regen tripod ff "$seed"; regen multiped lstm "$seed"; done
         regen biped lstm 0; regen tripod lstm 0; regen multiped ff 0
         grown multiped lstm
-        grow_regrow half 2  # here, so that the two lines are about equally long (~24 h each)
         ;;
     b)
         for seed in 0 1 2 3 4 5 6; do evolve_3d lstm "$seed"; done
@@ -78,7 +77,7 @@ case "${1:-}" in
         # its GA runs are 3d_ff seeds 0-2 again (4.2, 4.6 and 1.9 h): about 20 h in all
         python scripts/qd_comparison.py --root runs/paper/qd --seeds 0 1 2 --pop 100 --gens 300 \
             --workers 1
-        grown tripod ff  # here, so that both lines end at about the same time
+        grown tripod ff; grow_regrow half 2  # here, so that both lines end about together
         ;;
     snapshot)
         shopt -s nullglob
