@@ -266,6 +266,7 @@ RECORDS = {  # records of paper-size runs: (conditions at the paper's scale, how
 }
 RUN_SETTINGS = {  # runs that ran otherwise than their records folder's others
     "paper/3d_ff/seed_4": "2 worker processes, alone on the machine",
+    "paper/qd/ga/seed_2": "2 worker processes, alone on the machine",
 }
 
 
@@ -359,7 +360,6 @@ def _span(values: list[float]) -> str:
 REPEATED = ROOT / "records" / "paper" / "qd" / "ga"  # the QD comparison's GA: 3d_ff seeds again
 ORIGINALS = ROOT / "records" / "paper" / "3d_ff"
 TWO_CORES = Path(__file__).with_name("paper_run_2_cores.json")  # a paper run's start on 2 cores
-REPEATED_SETTINGS = {"seed_2": "2 worker processes, alone"}  # reruns not beside another run
 SAME_COLUMNS = ("best", "mean", "std")  # equal in every generation: the same evolution
 
 
@@ -387,7 +387,8 @@ def repeated_runs() -> list[dict]:
         n = min(len(again), len(first))
         out.append({"run": f"3d_ff {rerun.name.replace('_', ' ')}", "generations": n,
                     "original_h": _hours(first[:n]), "again_h": _hours(again[:n]),
-                    "how": REPEATED_SETTINGS.get(rerun.name, "one run per core, beside another"),
+                    "how": RUN_SETTINGS.get("/".join(rerun.parts[-4:]),
+                                            "one run per core, beside another"),
                     "same": _same_evolution(again[:n], first)})
     return out
 

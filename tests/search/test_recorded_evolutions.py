@@ -93,7 +93,8 @@ def test_a_run_evolved_again_is_compared_generation_by_generation(tmp_path, monk
     assert same["again_h"] == pytest.approx(40 / 3600)
     assert other["same"] is False  # its second generation's mean differs
     assert same["how"] == "one run per core, beside another"
-    monkeypatch.setitem(speed.REPEATED_SETTINGS, "seed_1", "2 worker processes, alone")
+    rerun = "/".join((tmp_path / "ga" / "seed_1").parts[-4:])  # as records/paper/qd/ga/seed_N
+    monkeypatch.setitem(speed.RUN_SETTINGS, rerun, "2 worker processes, alone")
     assert speed.repeated_runs()[1]["how"] == "2 worker processes, alone"
     assert "| 2 worker processes, alone |" in "\n".join(speed.repeated_section())
     # a run's start on 2 cores: projected by the reference's share of time in those
