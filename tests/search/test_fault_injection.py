@@ -38,10 +38,10 @@ def _slow_writes_then_run(out: str, resume: bool, force: bool) -> None:
 
 
 # Children come from a fork server: a fresh interpreter with mjregen imported and no threads,
-# instead of forks of this test process, which holds whatever earlier tests left (torch's
-# and Mesa's threads, GL contexts waiting for the garbage collector), none of it safe to
-# fork. The server imports mjregen's modules once, before any child (and pytest, which
-# the children's import of this module needs).
+# instead of forks of this test process, which by then holds the threads that earlier tests
+# started (8 OS threads after tests/experiments, faces and growth): a fork copies their
+# locks and state but not the threads. The server imports mjregen's modules once, before
+# any child (and pytest, which the children's import of this module needs).
 FORK_SERVER = multiprocessing.get_context("forkserver")
 FORK_SERVER.set_forkserver_preload(["pytest", "mjregen.grid", "mjregen.growth.checkpoint",
                                     "mjregen.search.backends", "mjregen.search.runs"])
